@@ -1,0 +1,116 @@
+//! The runtime choice of burn [`Device`]: `auto`, `wgpu` or `flex`.
+//!
+//! burn 0.22 selects the backend through a runtime `Device`, so nothing in FieldProbe is generic
+//! over a backend type. This crate turns the user's choice (a TOML/CLI string) into a device and a
+//! human-readable description of what was picked, so runs can log and record it.
+//!
+//! * `flex` — burn's portable CPU backend; always available.
+//! * `wgpu` — the default wgpu adapter (a hardware GPU if present, else a software Vulkan/GL
+//!   implementation such as Mesa's lavapipe).
+//! * `auto` — wgpu when a *hardware* GPU adapter exists, otherwise flex (a software rasterizer is
+//!   slower than flex for this workload).
+
+use std::fmt;
+use std::str::FromStr;
+
+pub use burn::tensor::Device;
+use burn::tensor::{DeviceKind, DeviceType};
+use serde::{Deserialize, Serialize};
+
+/// Which backend to run on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BackendChoice {
+    /// wgpu on a hardware GPU if one is present, else flex.
+    #[default]
+    Auto,
+    /// wgpu's default adapter.
+    Wgpu,
+    /// burn's CPU backend.
+    Flex,
+}
+
+impl FromStr for BackendChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "wgpu" => Ok(Self::Wgpu),
+            "flex" | "cpu" => Ok(Self::Flex),
+            _ => Err(format!(
+                "unknown backend '{s}': expected auto, wgpu or flex"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for BackendChoice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Auto => "auto",
+            Self::Wgpu => "wgpu",
+            Self::Flex => "flex",
+        })
+    }
+}
+
+/// A resolved backend: the device and what it is.
+#[derive(Clone, Debug)]
+pub struct Selected {
+    pub device: Device,
+    /// `flex` or `wgpu`.
+    pub backend: &'static str,
+    /// E.g. `wgpu: NVIDIA H100 (hardware)` or `flex (CPU)`.
+    pub description: String,
+}
+
+/// The name of the first wgpu adapter that is a physical card, if any. Opens the adapters.
+pub fn hardware_gpu() -> Option<(Device, String)> {
+    Device::enumerate(DeviceType::Wgpu)
+        .into_vec()
+        .into_iter()
+        .find_map(|d| {
+            let id = d.identity()?;
+            id.physical.as_ref()?;
+            Some((d, id.name))
+        })
+}
+
+impl BackendChoice {
+    /// Resolves the choice to a device (without autodiff; call `.autodiff()` to train).
+    pub fn select(self) -> Selected {
+        match self {
+            Self::Flex => flex(),
+            Self::Wgpu => {
+                let device = Device::wgpu(DeviceKind::DefaultDevice);
+                let name = device
+                    .identity()
+                    .map_or_else(|| "default adapter".into(), |i| i.name);
+                Selected {
+                    device,
+                    backend: "wgpu",
+                    description: format!("wgpu: {name}"),
+                }
+            }
+            Self::Auto => match hardware_gpu() {
+                Some((device, name)) => Selected {
+                    device,
+                    backend: "wgpu",
+                    description: format!("wgpu: {name} (hardware GPU found)"),
+                },
+                None => Selected {
+                    description: "flex (CPU; no hardware GPU adapter found)".into(),
+                    ..flex()
+                },
+            },
+        }
+    }
+}
+
+fn flex() -> Selected {
+    Selected {
+        device: Device::flex(),
+        backend: "flex",
+        description: "flex (CPU)".into(),
+    }
+}

@@ -1,0 +1,160 @@
+//! The `experiments` binary end to end: procedural and mesh sources, errors that name files.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn experiments(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_experiments"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn ok(out: &Output) -> String {
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{text}");
+    text
+}
+
+fn fails(out: &Output) -> String {
+    let text = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "expected failure, got: {text}");
+    text
+}
+
+#[test]
+fn procedural_dataset_has_the_published_files_and_a_contact_sheet() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("d");
+    let o = out.to_str().unwrap();
+    ok(&experiments(&[
+        "make-dataset",
+        "--out",
+        o,
+        "--categories",
+        "chair,04379243",
+        "--train",
+        "2",
+        "--val",
+        "1",
+        "--test",
+        "1",
+        "--seed",
+        "5",
+    ]));
+    for syn in ["03001627", "04379243"] {
+        for split in ["train", "val", "test"] {
+            for kind in ["images", "voxels"] {
+                assert!(
+                    out.join(format!("{syn}_{split}_{kind}.npz")).is_file(),
+                    "{syn} {split} {kind}"
+                );
+            }
+        }
+    }
+    assert!(
+        out.join("meshes/03001627/proc_chair_train_00000.obj")
+            .is_file()
+    );
+    let info = std::fs::read_to_string(out.join("dataset.json")).unwrap();
+    assert!(
+        info.contains("\"voxelizer\": \"nmr\"") && info.contains("\"seed\": 5"),
+        "{info}"
+    );
+    let sheet = image::open(out.join("contact_sheet.png")).unwrap();
+    assert!(sheet.width() > 8 * 128 && sheet.height() > 2 * 128);
+
+    let report = ok(&experiments(&["check-dataset", "--data", o]));
+    assert!(report.contains("| chair | 03001627 | train |"), "{report}");
+}
+
+fn write(path: &Path, text: &str) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(path, text).unwrap();
+}
+
+const TETRA: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+
+#[test]
+fn mesh_folder_goes_into_the_named_split_in_sorted_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let meshes = dir.path().join("meshes");
+    write(&meshes.join("car/b.obj"), TETRA);
+    write(
+        &meshes.join("car/a.obj"),
+        "o x\nv 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nv 0 0 1\nv 2 0 1\nv 2 1 1\nv 0 1 1\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n",
+    );
+    write(&meshes.join("03001627/only.obj"), TETRA);
+    let out = dir.path().join("d");
+    ok(&experiments(&[
+        "make-dataset",
+        "--out",
+        out.to_str().unwrap(),
+        "--meshes",
+        meshes.to_str().unwrap(),
+        "--split",
+        "val",
+        "--voxelizer",
+        "winding",
+    ]));
+    let ids = std::fs::read_to_string(out.join("02958343_val_ids.txt")).unwrap();
+    assert_eq!(ids, "a\nb\n");
+    assert!(out.join("03001627_val_images.npz").is_file());
+    assert!(!out.join("02958343_test_images.npz").exists());
+    let info = std::fs::read_to_string(out.join("dataset.json")).unwrap();
+    assert!(
+        info.contains("\"voxelizer\": \"winding\"") && info.contains("\"source\": \"meshes\""),
+        "{info}"
+    );
+}
+
+#[test]
+fn bad_meshes_and_folders_are_named_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let meshes = dir.path().join("meshes");
+    write(&meshes.join("chair/good.obj"), TETRA);
+    write(
+        &meshes.join("chair/empty.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\n",
+    );
+    let out = dir.path().join("d");
+    let err = fails(&experiments(&[
+        "make-dataset",
+        "--out",
+        out.to_str().unwrap(),
+        "--meshes",
+        meshes.to_str().unwrap(),
+    ]));
+    assert!(
+        err.contains("empty.obj") && err.contains("no faces"),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing is written when a mesh is bad");
+
+    std::fs::remove_file(meshes.join("chair/empty.obj")).unwrap();
+    write(&meshes.join("sofa/x.obj"), TETRA);
+    let err = fails(&experiments(&[
+        "make-dataset",
+        "--out",
+        out.to_str().unwrap(),
+        "--meshes",
+        meshes.to_str().unwrap(),
+    ]));
+    assert!(
+        err.contains("sofa") && err.contains("unknown category"),
+        "{err}"
+    );
+
+    let err = fails(&experiments(&[
+        "make-dataset",
+        "--out",
+        out.to_str().unwrap(),
+        "--categories",
+        "chiar",
+    ]));
+    assert!(err.contains("chiar"), "{err}");
+}
