@@ -81,6 +81,14 @@ fn check_solid(name: &str, mesh: &TriMesh, analytic: impl Fn(Vec3) -> bool) {
         "{name}: NMR voxels contain the analytic voxels"
     );
     assert!(nmr.count() > wind.count(), "{name}: NMR voxels are dilated");
+    // ... by about one voxel, not more: containment is not the trivial kind.
+    let nmr_iou = nmr.iou(&exact);
+    assert!(nmr_iou > 0.7, "{name}: NMR vs analytic IoU {nmr_iou}");
+    let hull_iou = hull.iou(&exact);
+    // A full grid would score about 0.35 here; 24 views all at 30° elevation leave the cube's hull
+    // loose (0.56), the sphere's tighter (0.77).
+    assert!(hull_iou > 0.5, "{name}: a convex shape's conservative hull is fairly tight, IoU {hull_iou}");
+    eprintln!("{name}: winding IoU {iou:.3}, NMR IoU {nmr_iou:.3}, footprint hull IoU {hull_iou:.3}");
     assert_eq!(
         wind.fraction_inside(&hull),
         1.0,
