@@ -87,8 +87,13 @@ fn check_solid(name: &str, mesh: &TriMesh, analytic: impl Fn(Vec3) -> bool) {
     let hull_iou = hull.iou(&exact);
     // A full grid would score about 0.35 here; 24 views all at 30° elevation leave the cube's hull
     // loose (0.56), the sphere's tighter (0.77).
-    assert!(hull_iou > 0.5, "{name}: a convex shape's conservative hull is fairly tight, IoU {hull_iou}");
-    eprintln!("{name}: winding IoU {iou:.3}, NMR IoU {nmr_iou:.3}, footprint hull IoU {hull_iou:.3}");
+    assert!(
+        hull_iou > 0.5,
+        "{name}: a convex shape's conservative hull is fairly tight, IoU {hull_iou}"
+    );
+    eprintln!(
+        "{name}: winding IoU {iou:.3}, NMR IoU {nmr_iou:.3}, footprint hull IoU {hull_iou:.3}"
+    );
     assert_eq!(
         wind.fraction_inside(&hull),
         1.0,
