@@ -28,7 +28,7 @@ fn run(choice: BackendChoice) {
     let sel = choice.select();
     let ta = Tensor::<2>::from_data(TensorData::new(a.clone(), [n, n]), &sel.device);
     let tb = Tensor::<2>::from_data(TensorData::new(b.clone(), [n, n]), &sel.device);
-    let got: Vec<f32> = ta.matmul(tb).tanh().into_data().to_vec().unwrap();
+    let got: Vec<f32> = ta.matmul(tb).tanh().try_into_vec_as::<f32>().unwrap();
     let want = reference(&a, &b, n);
     for (g, w) in got.iter().zip(&want) {
         assert!((g - w).abs() < 1e-4, "{}: {g} vs {w}", sel.description);

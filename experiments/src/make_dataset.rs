@@ -68,6 +68,30 @@ struct Job {
     objects: Vec<(String, Source)>,
 }
 
+/// Makes a procedural dataset with default rendering settings (used by experiments that generate
+/// their data on first run).
+pub fn make_procedural(
+    out: &Path,
+    categories: &[Category],
+    [train, val, test]: [usize; 3],
+    seed: u64,
+) -> Result<()> {
+    run(Args {
+        out: out.to_path_buf(),
+        categories: Some(categories.to_vec()),
+        train,
+        val,
+        test,
+        seed,
+        meshes: None,
+        split: Split::Test,
+        voxelizer: Voxelizer::Nmr,
+        supersample: 4,
+        layout: "kato".into(),
+        sheet_objects: 3,
+    })
+}
+
 pub fn run(args: Args) -> Result<()> {
     let jobs = match &args.meshes {
         Some(dir) => mesh_jobs(dir, args.split)?,

@@ -1,4 +1,9 @@
-//! FieldProbe regularizers: none, and the paper's p-norm normal consistency.
+//! FieldProbe regularizers.
 //!
-//! Part of the workspace skeleton laid down with the data foundation; the `Regularizer` trait and
-//! its implementations arrive with the probing and ablation work.
+//! | `type` | term |
+//! |---|---|
+//! | `none` | no regularization (the paper's "no regularizer" row of Table 2) |
+
+pub mod none;
+
+pub use none::NoRegularizer;

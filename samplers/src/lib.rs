@@ -1,5 +1,28 @@
-//! FieldProbe samplers: ray samplers (pixels per view) and anchor samplers (3D points).
+//! FieldProbe samplers: where rays and anchors go.
 //!
-//! This crate is the home of the uniform, normal and importance samplers. It is part of the
-//! workspace skeleton laid down with the data foundation; the `Sampler` traits and their
-//! implementations arrive with the probing work (issue "Ray-based field probing end to end").
+//! | `type` | kind | distribution |
+//! |---|---|---|
+//! | `uniform` | ray | pixel positions uniform over the image |
+//! | `uniform` | anchor | points uniform in the cube `[-extent, extent]³` |
+//! | `normal` | ray | NDC coordinates `~ N(0, σ)` (paper's "normal sampling" ablation, σ = 0.4), kept on the image |
+//! | `normal` | anchor | points `~ N(0, σ·I)` (σ = 0.4) |
+//!
+//! Each is a serde config registered with typetag (the `type` tag) and with the component
+//! registry (an example TOML block for `experiments list`).
+
+pub mod normal;
+pub mod uniform;
+
+pub use normal::{NormalAnchors, NormalRays};
+pub use uniform::{UniformAnchors, UniformRays};
+
+#[cfg(test)]
+mod test_support {
+    use fieldprobe_core::data::Silhouette;
+    use fieldprobe_core::probe::Supervision;
+
+    /// An object with empty silhouettes (samplers here ignore them).
+    pub fn blank() -> Supervision {
+        Supervision::nmr(vec![Silhouette::empty(64); 24])
+    }
+}

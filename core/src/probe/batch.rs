@@ -1,0 +1,144 @@
+//! From samplers and an assignment to the tensors of one training step.
+//!
+//! Per object: anchors from the anchor sampler, rays through pixels of the supervision views from
+//! the ray sampler (labels = bilinear silhouette), and the binned assignment. A batch concatenates
+//! the objects: anchors `[B, N, 3]`, and for every ray the indices of its anchors in the flat
+//! `[B·N]` field values, padded to the longest ray with the index `B·N` (a constant 0 appended to
+//! the values) and a validity mask.
+
+use glam::Vec3;
+use rand::RngCore;
+use rand::seq::index::sample;
+use serde::{Deserialize, Serialize};
+
+use super::assign::{Assignment, AssignmentPolicy, Probe, RaySet, assign_binned};
+use super::sampler::{AnchorSampler, RaySampler, Supervision};
+
+/// How many anchors and rays to probe per object, and how.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ProbeSpec {
+    /// Anchors per object (paper: 16000).
+    pub anchors: usize,
+    /// Rays per supervision view (paper: 4096).
+    pub rays_per_view: usize,
+    /// Supervision views per object and step, drawn from the 24 (paper: all 24).
+    pub views: usize,
+    /// Support radius τ (paper: 0.03).
+    pub radius: f32,
+    pub assignment: AssignmentPolicy,
+}
+
+/// One object's probe: anchors, rays and their assignment.
+#[derive(Clone, Debug)]
+pub struct ObjectProbe {
+    pub anchors: Vec<Vec3>,
+    pub rays: RaySet,
+    pub assignment: Assignment,
+}
+
+impl ObjectProbe {
+    /// Samples anchors and rays for `object` and assigns them.
+    pub fn sample(
+        object: &Supervision,
+        spec: &ProbeSpec,
+        rays: &dyn RaySampler,
+        anchors: &dyn AnchorSampler,
+        rng: &mut dyn RngCore,
+    ) -> Self {
+        let anchor_points = anchors.sample_anchors(object, spec.anchors, rng);
+        let n_views = object.cameras.len();
+        let views = sample(rng, n_views, spec.views.min(n_views)).into_vec();
+        let mut set = RaySet::default();
+        for v in views {
+            for px in rays.sample_pixels(object, v, spec.rays_per_view, rng) {
+                set.views.push(v as u16);
+                set.labels.push(object.silhouettes[v].bilinear(px));
+                set.pixels.push(px);
+            }
+        }
+        let assignment = assign_binned(Probe {
+            cameras: &object.cameras,
+            silhouettes: &object.silhouettes,
+            anchors: &anchor_points,
+            rays: &set,
+            radius: spec.radius,
+            policy: spec.assignment,
+        });
+        Self {
+            anchors: anchor_points,
+            rays: set,
+            assignment,
+        }
+    }
+}
+
+/// The host-side tensors of one step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProbeBatch {
+    /// Objects in the batch.
+    pub objects: usize,
+    /// Anchors per object.
+    pub anchors_per_object: usize,
+    /// `[B, N, 3]` anchor coordinates.
+    pub anchors: Vec<f32>,
+    /// Rays in the batch.
+    pub rays: usize,
+    /// Padded anchors per ray.
+    pub width: usize,
+    /// `[R, K]` indices into the flat `[B·N + 1]` values; `B·N` is the padding.
+    pub index: Vec<i32>,
+    /// `[R, K]` whether an entry is a real anchor.
+    pub valid: Vec<bool>,
+    /// `[R]` silhouette targets.
+    pub labels: Vec<f32>,
+    /// Ray–anchor pairs assigned (real entries of `index`).
+    pub pairs: usize,
+}
+
+impl ProbeBatch {
+    /// Concatenates object probes (all with the same number of anchors).
+    pub fn assemble(objects: &[ObjectProbe]) -> Self {
+        let n = objects.first().map_or(0, |o| o.anchors.len());
+        assert!(
+            objects.iter().all(|o| o.anchors.len() == n),
+            "equal anchor counts"
+        );
+        let pad = (objects.len() * n) as i32;
+        let width = objects
+            .iter()
+            .map(|o| o.assignment.max_per_ray())
+            .max()
+            .unwrap_or(0)
+            .max(1);
+        let rays: usize = objects.iter().map(|o| o.rays.len()).sum();
+        let mut index = Vec::with_capacity(rays * width);
+        let mut valid = Vec::with_capacity(rays * width);
+        let mut labels = Vec::with_capacity(rays);
+        let mut anchors = Vec::with_capacity(objects.len() * n * 3);
+        let mut pairs = 0;
+        for (b, o) in objects.iter().enumerate() {
+            anchors.extend(o.anchors.iter().flat_map(|a| a.to_array()));
+            let base = (b * n) as i32;
+            for r in 0..o.rays.len() {
+                let hit = o.assignment.of(r);
+                pairs += hit.len();
+                index.extend(hit.iter().map(|&a| base + a as i32));
+                valid.extend(std::iter::repeat_n(true, hit.len()));
+                index.extend(std::iter::repeat_n(pad, width - hit.len()));
+                valid.extend(std::iter::repeat_n(false, width - hit.len()));
+            }
+            labels.extend_from_slice(&o.rays.labels);
+        }
+        Self {
+            objects: objects.len(),
+            anchors_per_object: n,
+            anchors,
+            rays,
+            width,
+            index,
+            valid,
+            labels,
+            pairs,
+        }
+    }
+}

@@ -1,0 +1,40 @@
+//! Regularizers: extra loss terms on the field, evaluated where the probe put anchors.
+
+use std::fmt::Debug;
+
+use burn::prelude::*;
+
+use crate::field::FieldModel;
+
+/// φ for one batch (its latents fixed), queryable at arbitrary points — what a regularizer needs
+/// for finite differences around anchors.
+#[derive(Debug)]
+pub struct FieldQuery<'a> {
+    pub model: &'a FieldModel,
+    pub latent: Option<Tensor<2>>,
+}
+
+impl FieldQuery<'_> {
+    /// φ at `points` `[B, M, 3]` → `[B, M]`.
+    pub fn eval(&self, points: Tensor<3>) -> Tensor<2> {
+        self.model.decode(self.latent.clone(), points)
+    }
+}
+
+/// A weighted loss term on the field.
+pub trait Regularizer: Send + Sync + Debug {
+    /// The term (already multiplied by its weight) for anchors `[B, N, 3]` with field values
+    /// `phi` `[B, N]`; `None` when it contributes nothing this step.
+    fn loss(
+        &self,
+        field: &FieldQuery<'_>,
+        anchors: &Tensor<3>,
+        phi: &Tensor<2>,
+    ) -> Option<Tensor<1>>;
+}
+
+/// The TOML/serde side of a regularizer.
+#[typetag::serde(tag = "type")]
+pub trait RegularizerConfig: Send + Sync + Debug {
+    fn build(&self) -> Result<Box<dyn Regularizer>, String>;
+}

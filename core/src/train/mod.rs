@@ -1,0 +1,325 @@
+//! Training a field model from silhouettes by ray-based field probing.
+//!
+//! One step: draw `batch` training objects (with replacement) and for each a random input view;
+//! probe each object on the CPU (samplers + binned assignment, in parallel over objects); then on
+//! the device encode the input images, evaluate φ at all anchors, gather and aggregate per ray,
+//! and take an Adam step on `L = L_sil + Σ regularizers` (paper eq. 2 and 8; `L_sil` is the mean
+//! squared error over all rays of the batch — the paper's sum over views divided by `N_r`, up to
+//! the constant number of views).
+//!
+//! Everything random in a step derives from `(seed, step)`, so a run is reproducible on the CPU
+//! backend and a resumed run continues exactly as the uninterrupted one would (weights are
+//! initialized from the device seed; see [`Trainer::new`]).
+
+pub mod checkpoint;
+
+use std::time::Instant;
+
+use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::data::dataset::ObjectSet;
+use crate::field::{FieldModel, FieldModelConfig};
+use crate::geometry::NUM_VIEWS;
+use crate::probe::{
+    Aggregator, AnchorSampler, ObjectProbe, ProbeBatch, ProbeSpec, RaySampler, Supervision,
+};
+use crate::regularize::{FieldQuery, Regularizer};
+
+/// What a training object provides: its 24 input images and its supervision.
+#[derive(Clone, Debug)]
+pub struct TrainObject {
+    /// `[24, 4, S, S]` uint8 in Kato's convention.
+    pub images: Vec<u8>,
+    pub image_size: usize,
+    pub supervision: Supervision,
+}
+
+impl TrainObject {
+    /// Object `i` of a dataset set.
+    pub fn from_set(set: &ObjectSet, i: usize) -> Self {
+        let n = NUM_VIEWS * 4 * set.image_size * set.image_size;
+        Self {
+            images: set.images[i * n..(i + 1) * n].to_vec(),
+            image_size: set.image_size,
+            supervision: Supervision::nmr(set.silhouettes(i)),
+        }
+    }
+
+    /// View `v` as `[4, S, S]` floats in `[0, 1]`.
+    pub fn view(&self, v: usize) -> impl Iterator<Item = f32> + '_ {
+        let n = 4 * self.image_size * self.image_size;
+        self.images[v * n..(v + 1) * n]
+            .iter()
+            .map(|&b| b as f32 / 255.0)
+    }
+}
+
+/// The built components of a run.
+#[derive(Debug)]
+pub struct Components {
+    pub ray_sampler: Box<dyn RaySampler>,
+    pub anchor_sampler: Box<dyn AnchorSampler>,
+    pub aggregator: Box<dyn Aggregator>,
+    pub regularizer: Option<Box<dyn Regularizer>>,
+}
+
+/// Optimization settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainSpec {
+    /// Optimizer steps.
+    pub steps: usize,
+    /// Objects per step (paper: 8).
+    #[serde(default = "TrainSpec::default_batch")]
+    pub batch: usize,
+    /// Adam learning rate (paper: 1e-4).
+    #[serde(default = "TrainSpec::default_lr")]
+    pub lr: f64,
+    /// Write a checkpoint every this many steps (and at the end); 0 = only at the end.
+    #[serde(default = "TrainSpec::default_checkpoint_every")]
+    pub checkpoint_every: usize,
+}
+
+impl TrainSpec {
+    fn default_batch() -> usize {
+        8
+    }
+    fn default_lr() -> f64 {
+        1e-4
+    }
+    fn default_checkpoint_every() -> usize {
+        500
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        if self.steps == 0 || self.batch == 0 {
+            return Err("train.steps and train.batch must be positive".into());
+        }
+        if !(self.lr > 0.0 && self.lr.is_finite()) {
+            return Err(format!(
+                "train.lr must be a positive number, got {}",
+                self.lr
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Losses and throughput of one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StepStats {
+    pub step: usize,
+    pub loss: f32,
+    pub silhouette_loss: f32,
+    pub regularizer_loss: f32,
+    pub rays: usize,
+    /// Ray–anchor pairs assigned.
+    pub pairs: usize,
+    /// Decoder evaluations (anchors plus regularizer stencils are counted by the anchors only).
+    pub points: usize,
+    /// Seconds spent sampling and assigning on the CPU.
+    pub probe_seconds: f64,
+    /// Seconds spent on the device (forward, backward, optimizer), synchronized.
+    pub device_seconds: f64,
+}
+
+/// A training failure that is the data's or the configuration's fault, not a bug.
+#[derive(Debug, thiserror::Error)]
+pub enum TrainError {
+    #[error(
+        "the loss became {value} at step {step} (silhouette {sil}, regularizer {reg}); stopping. \
+         Lower train.lr or check the data; the last checkpoint is kept"
+    )]
+    NonFinite {
+        step: usize,
+        value: f32,
+        sil: f32,
+        reg: f32,
+    },
+}
+
+/// A step's host-side inputs.
+#[derive(Debug)]
+pub struct PreparedStep {
+    pub batch: ProbeBatch,
+    /// `[B, 4, S, S]` input images, if the model reads images.
+    pub images: Option<(Vec<f32>, usize)>,
+    pub probe_seconds: f64,
+}
+
+/// The RNG of step `step` for object slot `slot` under `seed`.
+pub fn step_rng(seed: u64, step: usize, slot: usize) -> ChaCha8Rng {
+    let mut h = seed ^ 0x51_7c_c1_b7_27_22_0a_95;
+    for x in [step as u64 + 1, slot as u64 + 1] {
+        h = (h ^ x).wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29) ^ (h >> 17);
+    }
+    ChaCha8Rng::seed_from_u64(h)
+}
+
+/// Samples and assigns a step's probes on the CPU.
+pub fn prepare_step(
+    data: &[TrainObject],
+    comps: &Components,
+    probe: &ProbeSpec,
+    batch: usize,
+    uses_images: bool,
+    seed: u64,
+    step: usize,
+) -> PreparedStep {
+    let t0 = Instant::now();
+    let mut rng = step_rng(seed, step, 0);
+    let picks: Vec<(usize, usize)> = (0..batch)
+        .map(|_| {
+            (
+                rng.random_range(0..data.len()),
+                rng.random_range(0..NUM_VIEWS),
+            )
+        })
+        .collect();
+    let probes: Vec<ObjectProbe> = picks
+        .par_iter()
+        .enumerate()
+        .map(|(slot, &(obj, _))| {
+            let mut rng = step_rng(seed, step, slot + 1);
+            ObjectProbe::sample(
+                &data[obj].supervision,
+                probe,
+                comps.ray_sampler.as_ref(),
+                comps.anchor_sampler.as_ref(),
+                &mut rng,
+            )
+        })
+        .collect();
+    let images = uses_images.then(|| {
+        let s = data[0].image_size;
+        let v: Vec<f32> = picks
+            .iter()
+            .flat_map(|&(o, view)| data[o].view(view))
+            .collect();
+        (v, s)
+    });
+    PreparedStep {
+        batch: ProbeBatch::assemble(&probes),
+        images,
+        probe_seconds: t0.elapsed().as_secs_f64(),
+    }
+}
+
+/// The loss of one prepared step: `(total, silhouette, regularizer)`.
+pub fn probe_loss(
+    model: &FieldModel,
+    prepared: &PreparedStep,
+    comps: &Components,
+    device: &Device,
+) -> (Tensor<1>, Tensor<1>, Option<Tensor<1>>) {
+    let b = &prepared.batch;
+    let (nb, n) = (b.objects, b.anchors_per_object);
+    let latent = prepared.images.as_ref().and_then(|(px, s)| {
+        let images = Tensor::<4>::from_data(TensorData::new(px.clone(), [nb, 4, *s, *s]), device);
+        model.encode(images)
+    });
+    let anchors = Tensor::<3>::from_data(TensorData::new(b.anchors.clone(), [nb, n, 3]), device);
+    let phi = model.decode(latent.clone(), anchors.clone());
+    let flat = Tensor::cat(
+        vec![phi.clone().reshape([nb * n]), Tensor::zeros([1], device)],
+        0,
+    );
+    let index =
+        Tensor::<1, Int>::from_data(TensorData::new(b.index.clone(), [b.rays * b.width]), device);
+    let values: Tensor<2> = flat.select(0, index).reshape([b.rays, b.width]);
+    let valid =
+        Tensor::<2, Bool>::from_data(TensorData::new(b.valid.clone(), [b.rays, b.width]), device);
+    let pred = comps.aggregator.aggregate(values, valid);
+    let labels = Tensor::<1>::from_data(TensorData::new(b.labels.clone(), [b.rays]), device);
+    let sil = (pred - labels).powi_scalar(2).mean();
+    let reg = comps.regularizer.as_ref().and_then(|r| {
+        let field = FieldQuery { model, latent };
+        r.loss(&field, &anchors, &phi)
+    });
+    let total = match &reg {
+        Some(r) => sil.clone() + r.clone(),
+        None => sil.clone(),
+    };
+    (total, sil, reg)
+}
+
+/// A model with its optimizer and position in training.
+pub struct Trainer {
+    pub model: FieldModel,
+    pub optim: ModuleOptimizer,
+    /// The autodiff device.
+    pub device: Device,
+    /// Steps done.
+    pub step: usize,
+    /// Mean loss per logged interval: `(step, loss)`.
+    pub history: Vec<(usize, f32)>,
+}
+
+impl std::fmt::Debug for Trainer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Trainer")
+            .field("step", &self.step)
+            .field("device", &self.device)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Trainer {
+    /// A fresh model on `device` (made autodiff), its weights drawn from the device RNG seeded
+    /// with `seed`.
+    pub fn new(config: &FieldModelConfig, device: &Device, seed: u64) -> Self {
+        let device = device.clone().autodiff();
+        device.seed(seed);
+        Self {
+            model: config.init(&device),
+            optim: AdamConfig::new().init(),
+            device,
+            step: 0,
+            history: Vec::new(),
+        }
+    }
+
+    /// One optimizer step on a prepared batch.
+    pub fn step(
+        &mut self,
+        prepared: &PreparedStep,
+        comps: &Components,
+        lr: f64,
+    ) -> Result<StepStats, TrainError> {
+        let t0 = Instant::now();
+        let (total, sil, reg) = probe_loss(&self.model, prepared, comps, &self.device);
+        let grads = total.backward();
+        let loss: f32 = total.into_scalar();
+        let sil: f32 = sil.into_scalar();
+        let reg: f32 = reg.map_or(0.0, |r| r.into_scalar());
+        if !loss.is_finite() {
+            return Err(TrainError::NonFinite {
+                step: self.step + 1,
+                value: loss,
+                sil,
+                reg,
+            });
+        }
+        let grads = GradientsParams::from_grads(grads, &self.model);
+        self.model = self.optim.step(lr, self.model.clone(), grads);
+        let _ = self.device.sync();
+        self.step += 1;
+        let b = &prepared.batch;
+        Ok(StepStats {
+            step: self.step,
+            loss,
+            silhouette_loss: sil,
+            regularizer_loss: reg,
+            rays: b.rays,
+            pairs: b.pairs,
+            points: b.objects * b.anchors_per_object,
+            probe_seconds: prepared.probe_seconds,
+            device_seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+}

@@ -1,0 +1,90 @@
+//! `experiments bench FILE.toml [--steps N]`: times training steps of an experiment on its
+//! configured backend and prints a table.
+//!
+//! Each step is timed in two parts, both synchronized: the CPU probe (sampling + binned
+//! assignment) and the device work (forward, backward, Adam; `device.sync()` before the clock is
+//! read). Reported: median step time, decoder points evaluated per second (anchors per step /
+//! device time), ray–anchor pairs decided per second (rays × anchors per step / probe time: the
+//! pairs the all-pairs reference would test) and pairs assigned per step.
+
+use std::path::PathBuf;
+
+use anyhow::{Result, bail};
+use fieldprobe_core::train::{Trainer, prepare_step};
+
+use crate::data::{ensure_dataset, load};
+use crate::experiment::load_experiment;
+
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    pub file: PathBuf,
+    /// Timed steps.
+    #[arg(long, default_value_t = 10)]
+    pub steps: usize,
+    /// Untimed warm-up steps (compilation, autotuning, allocation).
+    #[arg(long, default_value_t = 2)]
+    pub warmup: usize,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    if args.steps == 0 {
+        bail!("--steps must be positive");
+    }
+    let exp = load_experiment(&args.file)?;
+    ensure_dataset(&exp)?;
+    let data = load(&exp)?;
+    let objects: Vec<_> = data.iter().flat_map(|c| c.train.iter().cloned()).collect();
+    let selected = exp.backend.select();
+    let comps = exp
+        .components()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.file.display()))?;
+    let spec = exp.probe_spec();
+    let mut trainer = Trainer::new(&exp.model, &selected.device, exp.seed);
+    let (mut step_s, mut probe_s, mut device_s) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut points, mut pairs, mut decided) = (0usize, 0usize, 0u64);
+    for i in 0..args.warmup + args.steps {
+        let prepared = prepare_step(
+            &objects,
+            &comps,
+            &spec,
+            exp.train.batch,
+            exp.model.uses_image(),
+            exp.seed,
+            i,
+        );
+        let stats = trainer.step(&prepared, &comps, exp.train.lr)?;
+        if i >= args.warmup {
+            probe_s.push(stats.probe_seconds);
+            device_s.push(stats.device_seconds);
+            step_s.push(stats.probe_seconds + stats.device_seconds);
+            points = stats.points;
+            pairs = stats.pairs;
+            decided = stats.rays as u64 * spec.anchors as u64;
+        }
+    }
+    let (st, pr, dv) = (median(step_s), median(probe_s), median(device_s));
+    println!(
+        "| experiment | backend | batch | anchors/object | rays/step | median step (s) | probe (s) | device (s) | decoder points/s | pairs decided/s | pairs assigned/step |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!(
+        "| {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.3e} | {:.3e} | {} |",
+        exp.name,
+        selected.description,
+        exp.train.batch,
+        spec.anchors,
+        decided / spec.anchors as u64,
+        st,
+        pr,
+        dv,
+        points as f64 / dv,
+        decided as f64 / pr,
+        pairs
+    );
+    Ok(())
+}

@@ -1,0 +1,284 @@
+//! Experiment files: one TOML file describes a run (data, model, probing components, training,
+//! evaluation). Every table rejects unknown keys, and every error names the file.
+//!
+//! ```toml
+//! name = "quickstart"
+//! seed = 0
+//! backend = "auto"          # auto | wgpu | flex
+//!
+//! [data]
+//! dir = "data/quickstart"    # relative to the working directory
+//! categories = ["chair", "table"]
+//! generate = { train = 48, val = 0, test = 8, seed = 0 }   # made on first run if missing
+//!
+//! [model]
+//! type = "single_view"       # or "per_object"
+//!
+//! [probe]
+//! anchors = 2048
+//! rays_per_view = 256
+//! views = 8
+//! radius = 0.03
+//! assignment = "naive"       # or "boundary_aware"
+//! ray_sampler = { type = "uniform" }
+//! anchor_sampler = { type = "uniform" }
+//!
+//! [train]
+//! steps = 1000
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use fieldprobe_backends::BackendChoice;
+use fieldprobe_core::data::Category;
+use fieldprobe_core::data::dataset::Split;
+use fieldprobe_core::field::FieldModelConfig;
+use fieldprobe_core::probe::{
+    AggregatorConfig, AnchorSamplerConfig, AssignmentPolicy, MaxPool, ProbeSpec, RaySamplerConfig,
+};
+use fieldprobe_core::regularize::RegularizerConfig;
+use fieldprobe_core::train::{Components, TrainSpec};
+use fieldprobe_regularizers::NoRegularizer;
+use serde::{Deserialize, Serialize};
+
+/// A whole experiment file.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Experiment {
+    /// Names the run directory (`runs/<name>/`).
+    pub name: String,
+    /// Seeds weights, sampling and batch order.
+    #[serde(default)]
+    pub seed: u64,
+    /// `auto` (wgpu on a hardware GPU, else flex), `wgpu` or `flex`.
+    #[serde(default)]
+    pub backend: BackendChoice,
+    pub data: DataConfig,
+    #[serde(default)]
+    pub model: FieldModelConfig,
+    pub probe: ProbeConfig,
+    /// `[regularizer]` table; none by default.
+    #[serde(default = "no_regularizer")]
+    pub regularizer: Box<dyn RegularizerConfig>,
+    pub train: TrainSpec,
+    #[serde(default)]
+    pub eval: EvalConfig,
+}
+
+fn no_regularizer() -> Box<dyn RegularizerConfig> {
+    Box::new(NoRegularizer {})
+}
+
+fn max_pool() -> Box<dyn AggregatorConfig> {
+    Box::new(MaxPool {})
+}
+
+/// Where the data come from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataConfig {
+    /// Dataset directory (Kato npz layout or DVR folders).
+    pub dir: PathBuf,
+    /// Categories to train and evaluate on.
+    pub categories: Vec<Category>,
+    /// If set and the dataset is missing, generate procedural objects into `dir` first.
+    #[serde(default)]
+    pub generate: Option<GenerateConfig>,
+    /// Split to evaluate on.
+    #[serde(default = "test_split")]
+    pub eval_split: Split,
+    /// Use at most this many training objects per category.
+    #[serde(default)]
+    pub max_train_objects: Option<usize>,
+    /// Evaluate at most this many objects per category.
+    #[serde(default)]
+    pub max_eval_objects: Option<usize>,
+    /// Per-object fits: the index (in `eval_split`) of the object to fit.
+    #[serde(default)]
+    pub object: Option<usize>,
+}
+
+fn test_split() -> Split {
+    Split::Test
+}
+
+/// Procedural generation on first run.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GenerateConfig {
+    pub train: usize,
+    #[serde(default)]
+    pub val: usize,
+    pub test: usize,
+    #[serde(default)]
+    pub seed: u64,
+}
+
+/// The probing step: how many anchors and rays, which samplers, assignment and aggregator.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeConfig {
+    /// Anchors per object (paper: 16000).
+    pub anchors: usize,
+    /// Rays per supervision view (paper: 4096).
+    pub rays_per_view: usize,
+    /// Supervision views per object and step, of 24 (paper: 24).
+    #[serde(default = "all_views")]
+    pub views: usize,
+    /// Support radius τ (paper: 0.03).
+    #[serde(default = "paper_radius")]
+    pub radius: f32,
+    /// `naive` or `boundary_aware`.
+    #[serde(default)]
+    pub assignment: AssignmentPolicy,
+    pub ray_sampler: Box<dyn RaySamplerConfig>,
+    pub anchor_sampler: Box<dyn AnchorSamplerConfig>,
+    #[serde(default = "max_pool")]
+    pub aggregator: Box<dyn AggregatorConfig>,
+}
+
+fn all_views() -> usize {
+    24
+}
+
+fn paper_radius() -> f32 {
+    0.03
+}
+
+/// Evaluation settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EvalConfig {
+    /// Voxel grid resolution (NMR protocol: 32).
+    #[serde(default = "res32")]
+    pub resolution: usize,
+    /// Input views per test object (NMR protocol: all 24).
+    #[serde(default = "all_views")]
+    pub views: usize,
+    /// Samples per ray when rendering a fitted field's silhouettes (per-object fits).
+    #[serde(default = "silhouette_samples")]
+    pub silhouette_samples: usize,
+}
+
+fn res32() -> usize {
+    32
+}
+
+fn silhouette_samples() -> usize {
+    96
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        Self {
+            resolution: res32(),
+            views: all_views(),
+            silhouette_samples: silhouette_samples(),
+        }
+    }
+}
+
+impl Experiment {
+    /// Reads and validates an experiment file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read experiment file {}", path.display()))?;
+        let exp: Experiment =
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        exp.validate()
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        Ok(exp)
+    }
+
+    /// Checks values the types cannot; errors name the key.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        if self.name.trim().is_empty() || self.name.contains(['/', '\\']) {
+            return Err(format!(
+                "name must be a plain non-empty name, got '{}'",
+                self.name
+            ));
+        }
+        if self.data.categories.is_empty() {
+            return Err("data.categories must name at least one category".into());
+        }
+        self.model.validate()?;
+        self.train.validate()?;
+        let p = &self.probe;
+        if p.anchors == 0 || p.rays_per_view == 0 || p.views == 0 || p.views > 24 {
+            return Err(
+                "probe.anchors and probe.rays_per_view must be positive, probe.views in 1..=24"
+                    .into(),
+            );
+        }
+        if !(p.radius > 0.0 && p.radius < 0.5) {
+            return Err(format!(
+                "probe.radius must be in (0, 0.5), got {}",
+                p.radius
+            ));
+        }
+        if !(2..=256).contains(&self.eval.resolution)
+            || self.eval.views == 0
+            || self.eval.views > 24
+        {
+            return Err("eval.resolution must be in 2..=256 and eval.views in 1..=24".into());
+        }
+        if matches!(self.model, FieldModelConfig::PerObject { .. }) && self.data.object.is_none() {
+            return Err(
+                "a per_object model needs data.object (the index of the object to fit)".into(),
+            );
+        }
+        self.components()?;
+        Ok(())
+    }
+
+    /// The probing spec.
+    pub fn probe_spec(&self) -> ProbeSpec {
+        ProbeSpec {
+            anchors: self.probe.anchors,
+            rays_per_view: self.probe.rays_per_view,
+            views: self.probe.views,
+            radius: self.probe.radius,
+            assignment: self.probe.assignment,
+        }
+    }
+
+    /// Builds the pluggable components (validating their settings).
+    pub fn components(&self) -> std::result::Result<Components, String> {
+        let regularizer = self
+            .regularizer
+            .build()
+            .map_err(|e| format!("regularizer: {e}"))?;
+        Ok(Components {
+            ray_sampler: self
+                .probe
+                .ray_sampler
+                .build()
+                .map_err(|e| format!("probe.{e}"))?,
+            anchor_sampler: self
+                .probe
+                .anchor_sampler
+                .build()
+                .map_err(|e| format!("probe.{e}"))?,
+            aggregator: self
+                .probe
+                .aggregator
+                .build()
+                .map_err(|e| format!("probe.aggregator: {e}"))?,
+            regularizer: Some(regularizer),
+        })
+    }
+
+    /// The resolved configuration as TOML (what the run directory records).
+    pub fn to_toml(&self) -> Result<String> {
+        toml::to_string_pretty(self).context("cannot serialize the resolved experiment")
+    }
+}
+
+/// Loads an experiment or explains that a TOML path was expected.
+pub fn load_experiment(path: &Path) -> Result<Experiment> {
+    if path.extension().is_none_or(|e| e != "toml") {
+        bail!("{}: expected an experiment .toml file", path.display());
+    }
+    Experiment::load(path)
+}

@@ -1,0 +1,86 @@
+//! The FieldProbe command line, as a library so that crates adding plugins (see
+//! `examples/custom-sampler`) can link them and run the same CLI.
+//!
+//! ```text
+//! experiments FILE.toml [--out DIR] [--resume]     train and evaluate an experiment
+//! experiments bench FILE.toml [--steps N]          time training steps
+//! experiments list                                 registered components with example TOML
+//! experiments make-dataset --out DIR [...]         procedural or .obj meshes → published layout
+//! experiments check-dataset --data DIR             do silhouettes, cameras and voxels agree?
+//! ```
+
+pub mod bench;
+pub mod check_dataset;
+pub mod contact_sheet;
+pub mod data;
+pub mod evaluate;
+pub mod experiment;
+pub mod list;
+pub mod make_dataset;
+pub mod progress;
+pub mod report;
+pub mod run;
+
+use clap::{Parser, Subcommand};
+
+// The explicit plugin link list: typetag and the component registry only see crates that are
+// linked, so every plugin crate is named here, once.
+use fieldprobe_regularizers as _;
+use fieldprobe_samplers as _;
+
+/// The command line.
+#[derive(Parser, Debug)]
+#[command(
+    name = "experiments",
+    version,
+    about = "FieldProbe: implicit surfaces from silhouettes"
+)]
+#[command(args_conflicts_with_subcommands = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    run: Option<run::RunArgs>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Train and evaluate an experiment file (the same as `experiments FILE.toml`).
+    Run(run::RunArgs),
+    /// Time training steps of an experiment on its backend.
+    Bench(bench::BenchArgs),
+    /// List the registered samplers, aggregators and regularizers with example TOML.
+    List,
+    /// Render meshes (procedural or .obj) into a dataset in Kato's npz layout (or DVR's).
+    MakeDataset(make_dataset::Args),
+    /// Load a dataset (ours or the published files) and report per category how its silhouettes,
+    /// cameras and voxels agree (visual hull vs voxels).
+    CheckDataset(check_dataset::Args),
+}
+
+/// Runs the command line on the process arguments. Call it first thing in `main`.
+#[allow(unsafe_code)]
+pub fn cli_main() -> anyhow::Result<()> {
+    // burn materializes a loaded optimizer state on its default device before moving it to the
+    // parameters' device; without this the default is wgpu, which would start a GPU runtime just
+    // to resume a CPU run. SAFETY: called first in `main`, before any other thread exists.
+    if std::env::var_os("BURN_DEVICE").is_none() {
+        unsafe { std::env::set_var("BURN_DEVICE", "flex") };
+    }
+    let cli = Cli::parse();
+    match (cli.command, cli.run) {
+        (Some(Command::Run(args)), _) | (None, Some(args)) => run::run(args),
+        (Some(Command::Bench(args)), _) => bench::run(args),
+        (Some(Command::List), _) => {
+            list::run();
+            Ok(())
+        }
+        (Some(Command::MakeDataset(args)), _) => make_dataset::run(args),
+        (Some(Command::CheckDataset(args)), _) => check_dataset::run(args),
+        (None, None) => {
+            use clap::CommandFactory;
+            Cli::command().print_help()?;
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,188 @@
+//! `experiments FILE.toml`: train, evaluate, and write the run directory
+//! (`config.toml`, `checkpoints/`, `metrics.json`, `report.md`).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use burn::module::Module;
+use fieldprobe_core::data::dataset::write_atomic;
+use fieldprobe_core::field::FieldModelConfig;
+use fieldprobe_core::train::{Components, TrainObject, Trainer, checkpoint, prepare_step};
+use indicatif::ProgressBar;
+use serde::{Deserialize, Serialize};
+
+use crate::data::{CategoryData, ensure_dataset, load};
+use crate::evaluate::{CategoryMetrics, evaluate};
+use crate::experiment::{Experiment, load_experiment};
+
+/// Arguments of a run.
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    /// The experiment file.
+    pub file: PathBuf,
+    /// Run directory (default: `runs/<name>`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Continue from the run directory's latest checkpoint.
+    #[arg(long)]
+    pub resume: bool,
+}
+
+/// What `metrics.json` holds.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Metrics {
+    pub experiment: String,
+    /// Mean over categories of the model's IoU.
+    pub mean_iou: f32,
+    pub visual_hull_iou: f32,
+    pub mean_shape_iou: Option<f32>,
+    pub mean_gt_shape_iou: Option<f32>,
+    /// Per-object fits: mean IoU of the field's rendered silhouettes vs the input ones.
+    pub silhouette_iou: Option<f32>,
+    pub per_category: BTreeMap<String, CategoryMetrics>,
+    pub split: String,
+    pub resolution: usize,
+    pub steps: usize,
+    pub train_seconds: f64,
+    pub eval_seconds: f64,
+    pub final_loss: Option<f32>,
+    pub backend: String,
+    pub device: String,
+}
+
+fn mean_of(
+    m: &BTreeMap<String, CategoryMetrics>,
+    f: impl Fn(&CategoryMetrics) -> Option<f32>,
+) -> Option<f32> {
+    let v: Vec<f32> = m.values().filter_map(f).collect();
+    (!v.is_empty()).then(|| v.iter().sum::<f32>() / v.len() as f32)
+}
+
+/// All training objects of all categories, in one pool.
+fn pool(data: &[CategoryData]) -> Vec<TrainObject> {
+    data.iter().flat_map(|c| c.train.iter().cloned()).collect()
+}
+
+pub fn run(args: RunArgs) -> Result<()> {
+    let exp = load_experiment(&args.file)?;
+    let dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("runs").join(&exp.name));
+    let ckpt = dir.join("checkpoints");
+    let existing = checkpoint::latest(&ckpt)?;
+    if existing.is_some() && !args.resume {
+        bail!(
+            "{} already holds a checkpoint (step {}); pass --resume to continue it or --out DIR to start a new run",
+            ckpt.display(),
+            existing.map_or(0, |s| s.step)
+        );
+    }
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let resolved = exp.to_toml()?;
+    write_atomic(&dir.join("config.toml"), |w| {
+        std::io::Write::write_all(w, resolved.as_bytes())
+    })?;
+
+    ensure_dataset(&exp)?;
+    let data = load(&exp)?;
+    let selected = exp.backend.select();
+    eprintln!("backend: {}", selected.description);
+    let comps = exp
+        .components()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.file.display()))?;
+
+    let (trainer, train_seconds) =
+        train(&exp, &data, &comps, &selected.device, &ckpt, args.resume)?;
+    let final_loss = trainer.history.last().map(|h| h.1);
+    let model = trainer.model.valid();
+
+    let t0 = Instant::now();
+    let per_object_fit = matches!(exp.model, FieldModelConfig::PerObject { .. });
+    let per_category = evaluate(&model, &data, &exp.eval, per_object_fit, &selected.device);
+    let metrics = Metrics {
+        experiment: exp.name.clone(),
+        mean_iou: mean_of(&per_category, |c| Some(c.iou)).unwrap_or(0.0),
+        visual_hull_iou: mean_of(&per_category, |c| Some(c.visual_hull_iou)).unwrap_or(0.0),
+        mean_shape_iou: mean_of(&per_category, |c| c.mean_shape_iou),
+        mean_gt_shape_iou: mean_of(&per_category, |c| c.mean_gt_shape_iou),
+        silhouette_iou: mean_of(&per_category, |c| c.silhouette_iou),
+        per_category,
+        split: exp.data.eval_split.name().into(),
+        resolution: exp.eval.resolution,
+        steps: trainer.step,
+        train_seconds,
+        eval_seconds: t0.elapsed().as_secs_f64(),
+        final_loss,
+        backend: selected.backend.into(),
+        device: selected.description.clone(),
+    };
+    let json = serde_json::to_string_pretty(&metrics)?;
+    write_atomic(&dir.join("metrics.json"), |w| {
+        std::io::Write::write_all(w, json.as_bytes())
+    })?;
+    let report = crate::report::render(&exp, &metrics);
+    write_atomic(&dir.join("report.md"), |w| {
+        std::io::Write::write_all(w, report.as_bytes())
+    })?;
+    println!("{report}");
+    println!("run directory: {}", dir.display());
+    Ok(())
+}
+
+/// Trains (or resumes) to `exp.train.steps`, checkpointing atomically; returns the trainer and the
+/// seconds spent in this process.
+fn train(
+    exp: &Experiment,
+    data: &[CategoryData],
+    comps: &Components,
+    device: &burn::prelude::Device,
+    ckpt: &Path,
+    resume: bool,
+) -> Result<(Trainer, f64)> {
+    let mut trainer = if resume {
+        let t = checkpoint::load(&exp.model, device, ckpt)?;
+        eprintln!("resumed from {} at step {}", ckpt.display(), t.step);
+        t
+    } else {
+        Trainer::new(&exp.model, device, exp.seed)
+    };
+    let objects = pool(data);
+    let spec = exp.probe_spec();
+    let steps = exp.train.steps;
+    let log_every = (steps / 100).max(1);
+    let bar = ProgressBar::new(steps as u64).with_style(crate::progress::style("train"));
+    bar.set_position(trainer.step as u64);
+    let t0 = Instant::now();
+    let mut acc = (0.0f32, 0usize);
+    while trainer.step < steps {
+        let prepared = prepare_step(
+            &objects,
+            comps,
+            &spec,
+            exp.train.batch,
+            exp.model.uses_image(),
+            exp.seed,
+            trainer.step,
+        );
+        let stats = trainer.step(&prepared, comps, exp.train.lr).map_err(|e| {
+            bar.abandon();
+            anyhow::anyhow!("{e} (checkpoints: {})", ckpt.display())
+        })?;
+        acc = (acc.0 + stats.loss, acc.1 + 1);
+        if trainer.step % log_every == 0 || trainer.step == steps {
+            trainer.history.push((trainer.step, acc.0 / acc.1 as f32));
+            acc = (0.0, 0);
+        }
+        bar.set_message(format!("loss {:.4}", stats.loss));
+        bar.set_position(trainer.step as u64);
+        let every = exp.train.checkpoint_every;
+        if (every > 0 && trainer.step % every == 0) || trainer.step == steps {
+            checkpoint::save(&trainer, ckpt)?;
+        }
+    }
+    bar.finish_and_clear();
+    Ok((trainer, t0.elapsed().as_secs_f64()))
+}
