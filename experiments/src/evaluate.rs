@@ -98,7 +98,7 @@ pub fn evaluate(
                     .zip(&obj.supervision.silhouettes)
                     .enumerate()
                     .map(|(v, (cam, gt_sil))| {
-                        let z = latent.as_ref().map(|l| l.clone().slice([v..v + 1]));
+                        let z = latent.as_ref().map(|l| l.clone().narrow(0, v, 1));
                         render_field_silhouette(
                             model,
                             z.as_ref(),

@@ -185,3 +185,57 @@ fn bad_meshes_and_folders_are_named_and_nothing_is_written() {
     ]));
     assert!(err.contains("chiar"), "{err}");
 }
+
+#[test]
+fn experiment_files_with_bad_keys_or_components_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let good =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("quickstart.toml"))
+            .unwrap();
+    let cases = [
+        (
+            good.replace("rays_per_view", "rayz_per_view"),
+            "rayz_per_view",
+        ),
+        (
+            good.replace(
+                "ray_sampler = { type = \"uniform\" }",
+                "ray_sampler = { type = \"unifrom\" }",
+            ),
+            "unifrom",
+        ),
+        (good.replace("steps = 1200", "steps = 0"), "train.steps"),
+    ];
+    for (i, (text, needle)) in cases.iter().enumerate() {
+        let file = dir.path().join(format!("bad{i}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let err = fails(&experiments(&[
+            file.to_str().unwrap(),
+            "--out",
+            dir.path().join("run").to_str().unwrap(),
+        ]));
+        assert!(
+            err.contains(&format!("bad{i}.toml")) && err.contains(needle),
+            "{err}"
+        );
+    }
+    assert!(
+        !dir.path().join("run").exists(),
+        "nothing is written for a bad file"
+    );
+}
+
+#[test]
+fn list_shows_every_component_with_an_example() {
+    let out = ok(&experiments(&["list"]));
+    for needle in [
+        "`uniform`",
+        "`normal`",
+        "`max`",
+        "`none`",
+        "[probe.ray_sampler]",
+        "sigma = 0.4",
+    ] {
+        assert!(out.contains(needle), "{needle} missing from:\n{out}");
+    }
+}

@@ -134,6 +134,7 @@ fn flex_training_lowers_the_loss_and_is_reproducible() {
 
 #[test]
 fn wgpu_training_lowers_the_loss() {
+    let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
     let data = objects(1);
     let dev = BackendChoice::Wgpu.select().device;
     let a = train(&per_object(), &dev, &data, 60);
@@ -181,6 +182,7 @@ fn resumed_training_continues_exactly() {
 
 #[test]
 fn a_non_finite_loss_stops_training_with_a_clear_error() {
+    let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
     let mut data = objects(1);
     for s in &mut data[0].supervision.silhouettes {
         s.data.iter_mut().for_each(|v| *v = f32::NAN);

@@ -83,7 +83,7 @@ pub fn predict_grids(
         Some(latents) => views
             .iter()
             .map(|&v| {
-                let z = latents.clone().slice([v..v + 1]);
+                let z = latents.clone().narrow(0, v, 1);
                 occupancy_grid(&field_values(model, Some(&z), &points, device), res)
             })
             .collect(),

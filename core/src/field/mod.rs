@@ -109,6 +109,9 @@ pub struct PerObject {
 }
 
 /// A trainable occupancy field.
+// The variants are module handles (a few hundred bytes each, created once per run); boxing them
+// would buy nothing and complicate the Module derive.
+#[allow(clippy::large_enum_variant)]
 #[derive(Module, Debug)]
 pub enum FieldModel {
     SingleView(SingleView),
