@@ -13,12 +13,11 @@
 //!
 //! Footprint queries use a summed-area table per view, so each is O(1).
 
-use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::grid::{GridFrame, VoxelGrid};
 use super::image::Silhouette;
-use crate::geometry::{Camera, PixelPos};
+use crate::geometry::Camera;
 
 /// How a voxel is tested against a silhouette (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -97,20 +96,6 @@ pub fn visual_hull(
             }
         })
     })
-}
-
-/// Fraction of the views in which `p` projects inside the silhouette (bilinear ≥ ½): the
-/// "mean-filtered" visual hull value used by importance sampling of anchors.
-pub fn hull_score(p: Vec3, silhouettes: &[Silhouette], cameras: &[Camera]) -> f32 {
-    let inside = cameras
-        .iter()
-        .zip(silhouettes)
-        .filter(|(cam, s)| {
-            let (px, depth): (PixelPos, f32) = cam.project(p);
-            depth > 0.0 && s.bilinear(px) >= 0.5
-        })
-        .count();
-    inside as f32 / cameras.len().max(1) as f32
 }
 
 #[cfg(test)]

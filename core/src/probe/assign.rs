@@ -293,11 +293,6 @@ pub fn assign_binned(p: Probe<'_>) -> Assignment {
     Assignment::from_lists(lists)
 }
 
-/// Number of ray–anchor pairs the all-pairs reference tests (for throughput reports).
-pub fn pairs_tested(rays: usize, anchors: usize) -> u64 {
-    rays as u64 * anchors as u64
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
