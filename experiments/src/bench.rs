@@ -1,5 +1,6 @@
-//! `experiments bench FILE.toml [--steps N]`: times training steps of an experiment on its
-//! configured backend and prints a table.
+//! `experiments bench FILE.toml [--steps N] [--variant NAME]`: times training steps of an
+//! experiment (or of one entry of an ablation file, the base by default) on its configured
+//! backend and prints a table.
 //!
 //! Each step is timed in two parts, both synchronized: the CPU probe (sampling + binned
 //! assignment) and the device work (forward, backward, Adam; `device.sync()` before the clock is
@@ -24,6 +25,9 @@ pub struct BenchArgs {
     /// Untimed warm-up steps (compilation, autotuning, allocation).
     #[arg(long, default_value_t = 2)]
     pub warmup: usize,
+    /// For a file with `[[variants]]`: the variant to time (default: the base).
+    #[arg(long)]
+    pub variant: Option<String>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -35,7 +39,33 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.steps == 0 {
         bail!("--steps must be positive");
     }
-    let exp = load_experiment(&args.file)?;
+    let exp = if crate::variants::has_variants(&args.file) {
+        let file = crate::variants::AblationFile::load(&args.file)?;
+        let names: Vec<String> = file.entries.iter().map(|e| e.name.clone()).collect();
+        let i = match &args.variant {
+            None => 0,
+            Some(v) => names.iter().position(|n| n == v).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{}: no variant '{v}' (have: {})",
+                    args.file.display(),
+                    names.join(", ")
+                )
+            })?,
+        };
+        file.entries
+            .into_iter()
+            .nth(i)
+            .expect("index checked")
+            .experiment
+    } else {
+        if args.variant.is_some() {
+            bail!(
+                "{}: --variant needs a file with [[variants]]",
+                args.file.display()
+            );
+        }
+        load_experiment(&args.file)?
+    };
     ensure_dataset(&exp)?;
     let data = load(&exp)?;
     let objects: Vec<_> = data.iter().flat_map(|c| c.train.iter().cloned()).collect();

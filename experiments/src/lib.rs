@@ -2,13 +2,15 @@
 //! `examples/custom-sampler`) can link them and run the same CLI.
 //!
 //! ```text
-//! experiments FILE.toml [--out DIR] [--resume]     train and evaluate an experiment
+//! experiments FILE.toml [--out DIR] [--resume]     train and evaluate an experiment (with
+//!                                                  [[variants]]: an ablation, see `ablation`)
 //! experiments bench FILE.toml [--steps N]          time training steps
 //! experiments list                                 registered components with example TOML
 //! experiments make-dataset --out DIR [...]         procedural or .obj meshes → published layout
 //! experiments check-dataset --data DIR             do silhouettes, cameras and voxels agree?
 //! ```
 
+pub mod ablation;
 pub mod bench;
 pub mod check_dataset;
 pub mod contact_sheet;
@@ -17,9 +19,11 @@ pub mod evaluate;
 pub mod experiment;
 pub mod list;
 pub mod make_dataset;
+pub mod plot;
 pub mod progress;
 pub mod report;
 pub mod run;
+pub mod variants;
 
 use clap::{Parser, Subcommand};
 

@@ -1,5 +1,6 @@
 //! `experiments FILE.toml`: train, evaluate, and write the run directory
-//! (`config.toml`, `checkpoints/`, `metrics.json`, `report.md`).
+//! (`config.toml`, `checkpoints/`, `metrics.json`, `report.md`). A file with `[[variants]]` is an
+//! ablation and goes to [`crate::ablation`], which runs [`run_one`] per variant.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -66,42 +67,84 @@ fn pool(data: &[CategoryData]) -> Vec<TrainObject> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
+    if crate::variants::has_variants(&args.file) {
+        return crate::ablation::run(&args);
+    }
     let exp = load_experiment(&args.file)?;
     let dir = args
         .out
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&exp.name));
+    check_can_start(&dir, args.resume)?;
+    prepare_dir(&exp, &dir)?;
+
+    ensure_dataset(&exp)?;
+    let data = load(&exp)?;
+    let outcome = run_one(&exp, &args.file, &data, &dir, args.resume)?;
+    println!("{}", outcome.report);
+    println!("run directory: {}", dir.display());
+    Ok(())
+}
+
+/// A finished run.
+#[derive(Debug)]
+pub struct RunOutcome {
+    pub metrics: Metrics,
+    /// The trainer's loss history: `(step, mean loss of the interval)`.
+    pub history: Vec<(usize, f32)>,
+    /// What `report.md` holds.
+    pub report: String,
+}
+
+/// Refuses to start over a run directory that holds a checkpoint, unless resuming.
+pub fn check_can_start(dir: &Path, resume: bool) -> Result<()> {
     let ckpt = dir.join("checkpoints");
     let existing = checkpoint::latest(&ckpt)?;
-    if existing.is_some() && !args.resume {
+    if existing.is_some() && !resume {
         bail!(
             "{} already holds a checkpoint (step {}); pass --resume to continue it or --out DIR to start a new run",
             ckpt.display(),
             existing.map_or(0, |s| s.step)
         );
     }
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    Ok(())
+}
+
+/// Creates the run directory and writes the resolved `config.toml`.
+pub fn prepare_dir(exp: &Experiment, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let resolved = exp.to_toml()?;
     write_atomic(&dir.join("config.toml"), |w| {
         std::io::Write::write_all(w, resolved.as_bytes())
     })?;
+    Ok(())
+}
 
-    ensure_dataset(&exp)?;
-    let data = load(&exp)?;
+/// Trains (or, with `resume`, continues from `dir/checkpoints`) and evaluates `exp` on its loaded
+/// `data`, writing `metrics.json` and `report.md` into `dir` (made by [`prepare_dir`]); `file`
+/// names the experiment file in errors.
+pub fn run_one(
+    exp: &Experiment,
+    file: &Path,
+    data: &[CategoryData],
+    dir: &Path,
+    resume: bool,
+) -> Result<RunOutcome> {
+    let ckpt = dir.join("checkpoints");
     let selected = exp.backend.select();
     eprintln!("backend: {}", selected.description);
     let comps = exp
         .components()
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.file.display()))?;
+        .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
 
-    let (trainer, train_seconds) =
-        train(&exp, &data, &comps, &selected.device, &ckpt, args.resume)?;
+    let (trainer, train_seconds) = train(exp, data, &comps, &selected.device, &ckpt, resume)?;
     let final_loss = trainer.history.last().map(|h| h.1);
+    let history = trainer.history.clone();
     let model = trainer.model.valid();
 
     let t0 = Instant::now();
     let per_object_fit = matches!(exp.model, FieldModelConfig::PerObject { .. });
-    let per_category = evaluate(&model, &data, &exp.eval, per_object_fit, &selected.device);
+    let per_category = evaluate(&model, data, &exp.eval, per_object_fit, &selected.device);
     let metrics = Metrics {
         experiment: exp.name.clone(),
         mean_iou: mean_of(&per_category, |c| Some(c.iou)).unwrap_or(0.0),
@@ -123,13 +166,15 @@ pub fn run(args: RunArgs) -> Result<()> {
     write_atomic(&dir.join("metrics.json"), |w| {
         std::io::Write::write_all(w, json.as_bytes())
     })?;
-    let report = crate::report::render(&exp, &metrics);
+    let report = crate::report::render(exp, &metrics);
     write_atomic(&dir.join("report.md"), |w| {
         std::io::Write::write_all(w, report.as_bytes())
     })?;
-    println!("{report}");
-    println!("run directory: {}", dir.display());
-    Ok(())
+    Ok(RunOutcome {
+        metrics,
+        history,
+        report,
+    })
 }
 
 /// Trains (or resumes) to `exp.train.steps`, checkpointing atomically; returns the trainer and the
@@ -167,10 +212,12 @@ fn train(
             exp.seed,
             trainer.step,
         );
-        let stats = trainer.step(&prepared, comps, exp.train.lr).map_err(|e| {
-            bar.abandon();
-            anyhow::anyhow!("{e} (checkpoints: {})", ckpt.display())
-        })?;
+        let stats = trainer
+            .step(&prepared, comps, exp.train.lr_at(trainer.step))
+            .map_err(|e| {
+                bar.abandon();
+                anyhow::anyhow!("{e} (checkpoints: {})", ckpt.display())
+            })?;
         acc = (acc.0 + stats.loss, acc.1 + 1);
         if trainer.step % log_every == 0 || trainer.step == steps {
             trainer.history.push((trainer.step, acc.0 / acc.1 as f32));

@@ -204,9 +204,22 @@ fn experiment_files_with_bad_keys_or_components_are_named() {
             ),
             "unifrom",
         ),
-        (good.replace("steps = 1200", "steps = 0"), "train.steps"),
+        (
+            good.lines()
+                .map(|l| {
+                    if l.starts_with("steps = ") {
+                        "steps = 0"
+                    } else {
+                        l
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join("\n"),
+            "train.steps",
+        ),
     ];
     for (i, (text, needle)) in cases.iter().enumerate() {
+        assert_ne!(text, &good, "case {i} must change the file");
         let file = dir.path().join(format!("bad{i}.toml"));
         std::fs::write(&file, text).unwrap();
         let err = fails(&experiments(&[

@@ -11,9 +11,10 @@ use fieldprobe_core::data::procedural::{generate, object_rng};
 use fieldprobe_core::data::render::RenderOptions;
 use fieldprobe_core::data::voxelize::Voxelizer;
 use fieldprobe_core::field::{DecoderConfig, EncoderConfig, FieldModelConfig};
-use fieldprobe_core::probe::{AssignmentPolicy, MaxPool, ProbeSpec};
+use fieldprobe_core::probe::{AssignmentPolicy, MaxPool, ObjectProbe, ProbeBatch, ProbeSpec};
 use fieldprobe_core::train::{
-    Components, TrainError, TrainObject, Trainer, checkpoint, prepare_step,
+    Components, PreparedStep, TrainError, TrainObject, Trainer, checkpoint, prepare_step,
+    probe_loss, step_rng,
 };
 use fieldprobe_samplers::{UniformAnchors, UniformRays};
 
@@ -196,4 +197,51 @@ fn a_non_finite_loss_stops_training_with_a_clear_error() {
     assert!(matches!(err, TrainError::NonFinite { step: 1, .. }));
     assert!(err.to_string().contains("step 1"), "{err}");
     assert_eq!(t.step, 0, "no step was taken");
+}
+
+#[test]
+fn compacted_batches_give_the_same_loss_as_full_ones() {
+    let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
+    let data = objects(2);
+    let c = comps();
+    let probes: Vec<ObjectProbe> = data
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            ObjectProbe::sample(
+                &o.supervision,
+                &SPEC,
+                c.ray_sampler.as_ref(),
+                c.anchor_sampler.as_ref(),
+                &mut step_rng(3, 0, i),
+            )
+        })
+        .collect();
+    let dev = BackendChoice::Flex.select().device;
+    let t = Trainer::new(&model(), &dev, 4);
+    let image = |o: &TrainObject| o.view(0).collect::<Vec<f32>>();
+    let images: Vec<f32> = data.iter().flat_map(image).collect();
+    let loss = |compact: bool| {
+        let prepared = PreparedStep {
+            batch: ProbeBatch::assemble(&probes, compact),
+            images: Some((images.clone(), data[0].image_size)),
+            probe_seconds: 0.0,
+        };
+        let (_, sil, _) = probe_loss(&t.model, &prepared, &c, &t.device);
+        (sil.into_scalar::<f32>(), prepared.batch)
+    };
+    let (full, full_batch) = loss(false);
+    let (compact, compact_batch) = loss(true);
+    assert_eq!(full_batch.anchors_per_object, SPEC.anchors);
+    assert!(
+        compact_batch.anchors_per_object < SPEC.anchors / 2,
+        "at this density most anchors are on no ray: kept {}",
+        compact_batch.anchors_per_object
+    );
+    assert_eq!(full_batch.pairs, compact_batch.pairs);
+    assert_eq!(full_batch.labels, compact_batch.labels);
+    assert!(
+        (full - compact).abs() <= 1e-6 * full.abs().max(1e-3),
+        "{full} vs {compact}"
+    );
 }

@@ -15,6 +15,7 @@ use crate::data::{GridFrame, Silhouette, VoxelGrid};
 use crate::field::FieldModel;
 use crate::geometry::{Camera, NUM_VIEWS, PixelPos};
 use crate::train::TrainObject;
+use glam::Vec3;
 
 /// Points per decoder call when evaluating grids and renders (bounds memory).
 const CHUNK: usize = 16_384;
@@ -119,8 +120,50 @@ pub fn mean_shape(grids: &[VoxelGrid]) -> Option<VoxelGrid> {
     })
 }
 
-/// The silhouette of the field seen by `camera`: a pixel is covered when the maximum of φ over
-/// `samples` points along its ray (through the bounding sphere of the unit cube) is at least ½.
+/// Half-size of the field's domain: objects are normalized into the cube `[-½, ½]³` (the NMR
+/// grid's voxel centres span it), anchors are sampled there, and φ outside it is never trained,
+/// so renders read φ only inside it.
+pub const FIELD_HALF_EXTENT: f32 = 0.5;
+
+/// The silhouette of a field seen by `camera`: a pixel is covered when the maximum of φ over
+/// `samples` evenly spaced points of its ray inside the field's domain (the cube
+/// `[-FIELD_HALF_EXTENT, FIELD_HALF_EXTENT]³`) is at least ½ — the dense version of the
+/// max-pool probe. `field` maps points `[M·3]` to φ `[M]`; a ray that misses the cube is empty.
+pub fn render_silhouette(
+    camera: &Camera,
+    samples: usize,
+    field: impl FnOnce(&[f32]) -> Vec<f32>,
+) -> Silhouette {
+    let s = camera.image_size;
+    let bound = Vec3::splat(FIELD_HALF_EXTENT);
+    let mut hit = Vec::new();
+    let mut points = Vec::new();
+    for row in 0..s {
+        for col in 0..s {
+            let ray = camera.ray(PixelPos {
+                col: col as f32,
+                row: row as f32,
+            });
+            if let Some((t0, t1)) = ray.box_interval(-bound, bound) {
+                hit.push(row * s + col);
+                for k in 0..samples {
+                    let t = t0 + (t1 - t0) * (k as f32 + 0.5) / samples as f32;
+                    points.extend(ray.at(t).to_array());
+                }
+            }
+        }
+    }
+    let values = field(&points);
+    let mut out = Silhouette::empty(s);
+    for (&pixel, ray_values) in hit.iter().zip(values.chunks(samples)) {
+        if ray_values.iter().any(|&v| v >= 0.5) {
+            out.data[pixel] = 1.0;
+        }
+    }
+    out
+}
+
+/// [`render_silhouette`] of a model's field (one latent, or none for a per-object field).
 pub fn render_field_silhouette(
     model: &FieldModel,
     latent: Option<&Tensor<2>>,
@@ -128,36 +171,66 @@ pub fn render_field_silhouette(
     samples: usize,
     device: &Device,
 ) -> Silhouette {
-    let s = camera.image_size;
-    let centre_depth = camera.eye.length();
-    let (near, far) = (centre_depth - 0.9, centre_depth + 0.9);
-    let mut points = Vec::with_capacity(s * s * samples * 3);
-    for row in 0..s {
-        for col in 0..s {
-            let ray = camera.ray(PixelPos {
-                col: col as f32,
-                row: row as f32,
-            });
-            // Sample by depth along the optical axis so that every ray covers the same slab.
-            let cos = ray.direction.dot(camera.forward);
-            for k in 0..samples {
-                let z = near + (far - near) * (k as f32 + 0.5) / samples as f32;
-                points.extend(ray.at(z / cos).to_array());
-            }
+    render_silhouette(camera, samples, |points| {
+        field_values(model, latent, points, device)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// φ of a solid ball of radius `r` at the origin, as a 0/1 field.
+    fn ball(r: f32) -> impl FnOnce(&[f32]) -> Vec<f32> {
+        move |p: &[f32]| {
+            p.chunks(3)
+                .map(|q| (Vec3::from_slice(q).length() < r) as u8 as f32)
+                .collect()
         }
     }
-    let values = field_values(model, latent, &points, device);
-    Silhouette {
-        size: s,
-        data: values
-            .chunks(samples)
-            .map(|c| {
-                if c.iter().cloned().fold(0.0f32, f32::max) >= 0.5 {
-                    1.0
-                } else {
-                    0.0
+
+    #[test]
+    fn rendered_ball_matches_its_analytic_silhouette() {
+        let r = 0.3;
+        for view in [0, 5, 13] {
+            let cam = Camera::nmr(view);
+            let rendered = render_silhouette(&cam, 96, ball(r));
+            let mut exact = Silhouette::empty(cam.image_size);
+            for row in 0..cam.image_size {
+                for col in 0..cam.image_size {
+                    let ray = cam.ray(PixelPos {
+                        col: col as f32,
+                        row: row as f32,
+                    });
+                    if ray.sphere_interval(Vec3::ZERO, r).is_some() {
+                        exact.data[row * cam.image_size + col] = 1.0;
+                    }
                 }
-            })
-            .collect(),
+            }
+            let iou = rendered.iou(&exact);
+            assert!(iou > 0.97, "view {view}: IoU {iou}");
+        }
+    }
+
+    #[test]
+    fn field_outside_the_domain_is_not_rendered() {
+        // Occupied only outside the cube: nothing of it may show.
+        let outside = |p: &[f32]| -> Vec<f32> {
+            p.chunks(3)
+                .map(|q| {
+                    (Vec3::from_slice(q).abs().max_element() > FIELD_HALF_EXTENT + 1e-4) as u8
+                        as f32
+                })
+                .collect()
+        };
+        let sil = render_silhouette(&Camera::nmr(3), 64, outside);
+        assert!(sil.data.iter().all(|&v| v == 0.0));
+        // The whole cube is occupied: its projection is covered, and the corners of the image
+        // (outside the cube's projection) are not.
+        let full = |p: &[f32]| vec![1.0; p.len() / 3];
+        let sil = render_silhouette(&Camera::nmr(0), 8, full);
+        let covered = sil.data.iter().filter(|&&v| v > 0.5).count();
+        assert!(covered > 0 && covered < sil.data.len());
+        assert_eq!(sil.data[0], 0.0);
     }
 }

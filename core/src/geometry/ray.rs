@@ -29,6 +29,25 @@ impl Ray {
         let (t0, t1) = (-b - s, -b + s);
         (t1 >= 0.0).then_some((t0.max(0.0), t1))
     }
+
+    /// Parameters where the ray enters and leaves the axis-aligned box `[min, max]` (slab
+    /// method), clipped to `t ≥ 0`; `None` when it misses the box or the box lies behind.
+    pub fn box_interval(&self, min: Vec3, max: Vec3) -> Option<(f32, f32)> {
+        let (mut t0, mut t1) = (0.0f32, f32::INFINITY);
+        for a in 0..3 {
+            let (o, d) = (self.origin[a], self.direction[a]);
+            if d.abs() < 1e-12 {
+                if o < min[a] || o > max[a] {
+                    return None;
+                }
+                continue;
+            }
+            let (ta, tb) = ((min[a] - o) / d, (max[a] - o) / d);
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        (t0 <= t1).then_some((t0, t1))
+    }
 }
 
 #[cfg(test)]
@@ -46,5 +65,39 @@ mod tests {
         assert!(r.sphere_interval(Vec3::new(2.0, 0.0, 0.0), 1.0).is_none());
         assert!(r.sphere_interval(Vec3::new(0.0, 0.0, -9.0), 1.0).is_none());
         assert!((r.at(2.0) - Vec3::new(0.0, 0.0, -3.0)).length() < 1e-6);
+    }
+
+    #[test]
+    fn box_interval_hits_misses_and_starts_inside() {
+        let (lo, hi) = (Vec3::splat(-0.5), Vec3::splat(0.5));
+        let r = Ray {
+            origin: Vec3::new(0.2, 0.1, -5.0),
+            direction: Vec3::Z,
+        };
+        let (t0, t1) = r.box_interval(lo, hi).unwrap();
+        assert!((t0 - 4.5).abs() < 1e-6 && (t1 - 5.5).abs() < 1e-6);
+        // A diagonal through opposite corners has length √3.
+        let d = Vec3::ONE.normalize();
+        let diag = Ray {
+            origin: -d * 3.0,
+            direction: d,
+        };
+        let (t0, t1) = diag.box_interval(lo, hi).unwrap();
+        assert!((t1 - t0 - 3f32.sqrt()).abs() < 1e-5);
+        let miss = Ray {
+            origin: Vec3::new(0.6, 0.0, -5.0),
+            direction: Vec3::Z,
+        };
+        assert!(miss.box_interval(lo, hi).is_none());
+        let behind = Ray {
+            origin: Vec3::new(0.0, 0.0, 2.0),
+            direction: Vec3::Z,
+        };
+        assert!(behind.box_interval(lo, hi).is_none());
+        let inside = Ray {
+            origin: Vec3::ZERO,
+            direction: Vec3::X,
+        };
+        assert_eq!(inside.box_interval(lo, hi), Some((0.0, 0.5)));
     }
 }

@@ -77,7 +77,7 @@ impl ObjectProbe {
 pub struct ProbeBatch {
     /// Objects in the batch.
     pub objects: usize,
-    /// Anchors per object.
+    /// Anchors kept per object (all sampled ones unless compacted).
     pub anchors_per_object: usize,
     /// `[B, N, 3]` anchor coordinates.
     pub anchors: Vec<f32>,
@@ -97,13 +97,41 @@ pub struct ProbeBatch {
 
 impl ProbeBatch {
     /// Concatenates object probes (all with the same number of anchors).
-    pub fn assemble(objects: &[ObjectProbe]) -> Self {
+    ///
+    /// With `compact`, each object keeps only the anchors that some ray meets (filled up, with
+    /// anchors no ray meets, to the batch's largest such count so that the batch stays
+    /// rectangular): an anchor on no ray contributes nothing to `L_sil`, and at CPU-scale
+    /// densities most anchors are on no ray, so this removes most decoder work without changing
+    /// a single ray's prediction. At paper scale nearly every anchor is met and it changes
+    /// nothing. Regularizers then see the kept anchors — every probed anchor plus a few others —
+    /// rather than all sampled ones. `compact = false` is the plain reference.
+    pub fn assemble(objects: &[ObjectProbe], compact: bool) -> Self {
         let n = objects.first().map_or(0, |o| o.anchors.len());
         assert!(
             objects.iter().all(|o| o.anchors.len() == n),
             "equal anchor counts"
         );
-        let pad = (objects.len() * n) as i32;
+        // Per object: anchors in kept order (met ones first) and each anchor's new position.
+        let orders: Vec<(Vec<u32>, usize)> = objects
+            .iter()
+            .map(|o| {
+                let mut met = vec![false; n];
+                for &a in &o.assignment.anchors {
+                    met[a as usize] = true;
+                }
+                let (mut order, rest): (Vec<u32>, Vec<u32>) =
+                    (0..n as u32).partition(|&a| met[a as usize]);
+                let used = order.len();
+                order.extend(rest);
+                (order, used)
+            })
+            .collect();
+        let kept = if compact {
+            orders.iter().map(|o| o.1).max().unwrap_or(0).max(1).min(n)
+        } else {
+            n
+        };
+        let pad = (objects.len() * kept) as i32;
         let width = objects
             .iter()
             .map(|o| o.assignment.max_per_ray())
@@ -114,15 +142,19 @@ impl ProbeBatch {
         let mut index = Vec::with_capacity(rays * width);
         let mut valid = Vec::with_capacity(rays * width);
         let mut labels = Vec::with_capacity(rays);
-        let mut anchors = Vec::with_capacity(objects.len() * n * 3);
+        let mut anchors = Vec::with_capacity(objects.len() * kept * 3);
         let mut pairs = 0;
-        for (b, o) in objects.iter().enumerate() {
-            anchors.extend(o.anchors.iter().flat_map(|a| a.to_array()));
-            let base = (b * n) as i32;
+        let mut position = vec![0i32; n];
+        for (b, (o, (order, _))) in objects.iter().zip(&orders).enumerate() {
+            for (i, &a) in order[..kept].iter().enumerate() {
+                anchors.extend(o.anchors[a as usize].to_array());
+                position[a as usize] = i as i32;
+            }
+            let base = (b * kept) as i32;
             for r in 0..o.rays.len() {
                 let hit = o.assignment.of(r);
                 pairs += hit.len();
-                index.extend(hit.iter().map(|&a| base + a as i32));
+                index.extend(hit.iter().map(|&a| base + position[a as usize]));
                 valid.extend(std::iter::repeat_n(true, hit.len()));
                 index.extend(std::iter::repeat_n(pad, width - hit.len()));
                 valid.extend(std::iter::repeat_n(false, width - hit.len()));
@@ -131,7 +163,7 @@ impl ProbeBatch {
         }
         Self {
             objects: objects.len(),
-            anchors_per_object: n,
+            anchors_per_object: kept,
             anchors,
             rays,
             width,

@@ -80,6 +80,11 @@ pub struct TrainSpec {
     /// Adam learning rate (paper: 1e-4).
     #[serde(default = "TrainSpec::default_lr")]
     pub lr: f64,
+    /// If set, the learning rate follows a cosine from `lr` at the first step down to `lr_final`
+    /// at the last (what long fits need to settle details); unset keeps `lr` constant (the
+    /// paper's setting).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lr_final: Option<f64>,
     /// Write a checkpoint every this many steps (and at the end); 0 = only at the end.
     #[serde(default = "TrainSpec::default_checkpoint_every")]
     pub checkpoint_every: usize,
@@ -106,7 +111,26 @@ impl TrainSpec {
                 self.lr
             ));
         }
+        if let Some(f) = self.lr_final
+            && !(f > 0.0 && f <= self.lr)
+        {
+            return Err(format!(
+                "train.lr_final must be positive and at most train.lr ({}), got {f}",
+                self.lr
+            ));
+        }
         Ok(())
+    }
+
+    /// The learning rate of step `step` (0-based).
+    pub fn lr_at(&self, step: usize) -> f64 {
+        match self.lr_final {
+            None => self.lr,
+            Some(end) => {
+                let t = step as f64 / (self.steps.max(2) - 1) as f64;
+                end + 0.5 * (self.lr - end) * (1.0 + (std::f64::consts::PI * t.min(1.0)).cos())
+            }
+        }
     }
 }
 
@@ -204,7 +228,7 @@ pub fn prepare_step(
         (v, s)
     });
     PreparedStep {
-        batch: ProbeBatch::assemble(&probes),
+        batch: ProbeBatch::assemble(&probes, true),
         images,
         probe_seconds: t0.elapsed().as_secs_f64(),
     }
@@ -321,5 +345,29 @@ impl Trainer {
             probe_seconds: prepared.probe_seconds,
             device_seconds: t0.elapsed().as_secs_f64(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cosine_schedule_runs_from_lr_to_lr_final() {
+        let mut spec = TrainSpec {
+            steps: 101,
+            batch: 1,
+            lr: 1e-3,
+            lr_final: Some(1e-5),
+            checkpoint_every: 0,
+        };
+        assert!((spec.lr_at(0) - 1e-3).abs() < 1e-12);
+        assert!((spec.lr_at(50) - (1e-5 + 0.5 * (1e-3 - 1e-5))).abs() < 1e-12);
+        assert!((spec.lr_at(100) - 1e-5).abs() < 1e-12);
+        assert!((1..101).all(|s| spec.lr_at(s) <= spec.lr_at(s - 1)));
+        spec.lr_final = Some(2e-3);
+        assert!(spec.validate().unwrap_err().contains("lr_final"));
+        spec.lr_final = None;
+        assert_eq!(spec.lr_at(77), 1e-3);
     }
 }
