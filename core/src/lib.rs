@@ -7,6 +7,7 @@
 //! * [`probe`] — samplers, ray–anchor assignment, aggregation, training batches.
 //! * [`regularize`] — the regularizer trait; [`registry`] — pluggable components.
 //! * [`train`] — the training loop and checkpoints; [`eval`] — 3D IoU in the NMR protocol.
+//! * [`extract`] — meshes from a field: MISE refinement + crack-free marching cubes, `.obj`/`.ply`.
 //!
 //! Conventions are fixed by `DESIGN.md` §4 and pinned by tests against hand-worked numbers and an
 //! independently computed golden file.
@@ -14,6 +15,7 @@
 pub mod data;
 pub mod error;
 pub mod eval;
+pub mod extract;
 pub mod field;
 pub mod geometry;
 pub mod probe;

@@ -600,6 +600,16 @@ mod tests {
         ImportanceAnchorSampler::new(config).unwrap()
     }
 
+    /// `k` successes of `n` draws are within 4 standard deviations of a Binomial(n, p).
+    fn assert_binomial(k: f64, n: usize, p: f64) {
+        let sd = (n as f64 * p * (1.0 - p)).sqrt();
+        assert!(
+            (k - n as f64 * p).abs() < 4.0 * sd,
+            "{k} vs {}",
+            n as f64 * p
+        );
+    }
+
     #[test]
     fn normal_pair_is_two_independent_standard_normals() {
         let mut rng = ChaCha8Rng::seed_from_u64(9);
@@ -817,13 +827,7 @@ mod tests {
             .iter()
             .filter(|p| far(p))
             .count() as f64;
-        let p = 0.25 * p_far;
-        let sd = (n as f64 * p * (1.0 - p)).sqrt();
-        assert!(
-            (k - n as f64 * p).abs() < 4.0 * sd,
-            "{k} vs {}",
-            n as f64 * p
-        );
+        assert_binomial(k, n, 0.25 * p_far);
     }
 
     #[test]
@@ -1020,13 +1024,7 @@ mod tests {
             .iter()
             .filter(|p| far(p))
             .count() as f64;
-        let p = 0.3 * p_far;
-        let sd = (n as f64 * p * (1.0 - p)).sqrt();
-        assert!(
-            (k - n as f64 * p).abs() < 4.0 * sd,
-            "{k} vs {}",
-            n as f64 * p
-        );
+        assert_binomial(k, n, 0.3 * p_far);
     }
 
     #[test]

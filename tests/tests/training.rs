@@ -239,6 +239,7 @@ fn compacted_batches_give_the_same_loss_as_full_ones() {
         compact_batch.anchors_per_object
     );
     assert_eq!(full_batch.pairs, compact_batch.pairs);
+    assert_eq!(full_batch.views_per_object, SPEC.views);
     assert_eq!(full_batch.labels, compact_batch.labels);
     assert!(
         (full - compact).abs() <= 1e-6 * full.abs().max(1e-3),

@@ -93,6 +93,16 @@ pub struct ProbeBatch {
     pub labels: Vec<f32>,
     /// Ray–anchor pairs assigned (real entries of `index`).
     pub pairs: usize,
+    /// Supervision views per object (the first object's distinct ray views; every object of a
+    /// step is probed with the same spec). `L_sil` sums the per-view means over them.
+    pub views_per_object: usize,
+}
+
+/// How many different views a ray set draws from.
+fn distinct_views(views: &[u16]) -> usize {
+    let mut seen = std::collections::BTreeSet::new();
+    seen.extend(views.iter().copied());
+    seen.len().max(1)
 }
 
 impl ProbeBatch {
@@ -164,6 +174,7 @@ impl ProbeBatch {
         Self {
             objects: objects.len(),
             anchors_per_object: kept,
+            views_per_object: objects.first().map_or(1, |o| distinct_views(&o.rays.views)),
             anchors,
             rays,
             width,

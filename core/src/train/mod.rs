@@ -3,9 +3,12 @@
 //! One step: draw `batch` training objects (with replacement) and for each a random input view;
 //! probe each object on the CPU (samplers + binned assignment, in parallel over objects); then on
 //! the device encode the input images, evaluate φ at all anchors, gather and aggregate per ray,
-//! and take an Adam step on `L = L_sil + Σ regularizers` (paper eq. 2 and 8; `L_sil` is the mean
-//! squared error over all rays of the batch — the paper's sum over views divided by `N_r`, up to
-//! the constant number of views).
+//! and take an Adam step on `L = L_sil + Σ regularizers` (paper eq. 2 and 8). `L_sil` is the
+//! paper's: per object, the sum over its supervision views of the mean squared error over the
+//! view's `N_r` rays, averaged over the batch's objects — i.e. the mean over all rays times the
+//! number of views per object. The scale matters only beside a regularizer: with it, the paper's
+//! `λ = 1e-2` weighs the two terms as the paper does (a plain mean would make λ `views`× too
+//! strong: with 8 views, enough to stall training at CPU scale).
 //!
 //! Everything random in a step derives from `(seed, step)`, so a run is reproducible on the CPU
 //! backend and a resumed run continues exactly as the uninterrupted one would (weights are
@@ -260,7 +263,10 @@ pub fn probe_loss(
         Tensor::<2, Bool>::from_data(TensorData::new(b.valid.clone(), [b.rays, b.width]), device);
     let pred = comps.aggregator.aggregate(values, valid);
     let labels = Tensor::<1>::from_data(TensorData::new(b.labels.clone(), [b.rays]), device);
-    let sil = (pred - labels).powi_scalar(2).mean();
+    let sil = (pred - labels)
+        .powi_scalar(2)
+        .mean()
+        .mul_scalar(b.views_per_object as f32);
     let reg = comps.regularizer.as_ref().and_then(|r| {
         let field = FieldQuery { model, latent };
         r.loss(&field, &anchors, &phi)
