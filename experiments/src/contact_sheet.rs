@@ -3,9 +3,11 @@
 use std::path::Path;
 
 use anyhow::Result;
-use fieldprobe_core::data::dataset::{ObjectSet, write_atomic};
+use fieldprobe_core::data::dataset::ObjectSet;
 use fieldprobe_core::geometry::NUM_VIEWS;
 use image::{Rgb, RgbImage};
+
+use crate::plot::{grid, write_png};
 
 /// Views shown per object (every third of the 24, a full turn).
 const VIEWS: [usize; 8] = [0, 3, 6, 9, 12, 15, 18, 21];
@@ -26,30 +28,23 @@ pub fn write(path: &Path, sets: &[ObjectSet], per_category: usize) -> Result<()>
         rows.extend((0..set.len().min(per_category)).map(|i| (set, i)));
     }
     let s = sets.first().map_or(64, |s| s.image_size) as u32;
-    let cell = s * ZOOM + GAP;
-    let mut img = RgbImage::from_pixel(
-        VIEWS.len() as u32 * cell + GAP,
-        rows.len().max(1) as u32 * cell + GAP,
-        Rgb([40, 40, 48]),
-    );
-    for (r, (set, i)) in rows.iter().enumerate() {
-        for (c, &v) in VIEWS.iter().enumerate() {
-            debug_assert!(v < NUM_VIEWS);
-            let planes = set.view_rgba(*i, v);
-            let plane = (s * s) as usize;
-            for y in 0..s * ZOOM {
-                for x in 0..s * ZOOM {
-                    let p = ((y / ZOOM) * s + x / ZOOM) as usize;
-                    // Kato's RGB is 255 − (colour over white); invert back.
-                    let px = Rgb([0, 1, 2].map(|ch| 255 - planes[ch * plane + p]));
-                    img.put_pixel(GAP + c as u32 * cell + x, GAP + r as u32 * cell + y, px);
-                }
-            }
-        }
-    }
-    write_atomic(path, |w| {
-        img.write_to(w, image::ImageFormat::Png)
-            .map_err(std::io::Error::other)
-    })?;
-    Ok(())
+    let plane = (s * s) as usize;
+    let panels: Vec<Vec<RgbImage>> = rows
+        .iter()
+        .map(|(set, i)| {
+            VIEWS
+                .iter()
+                .map(|&v| {
+                    debug_assert!(v < NUM_VIEWS);
+                    let planes = set.view_rgba(*i, v);
+                    RgbImage::from_fn(s * ZOOM, s * ZOOM, |x, y| {
+                        let p = ((y / ZOOM) * s + x / ZOOM) as usize;
+                        // Kato's RGB is 255 − (colour over white); invert back.
+                        Rgb([0, 1, 2].map(|ch| 255 - planes[ch * plane + p]))
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    write_png(path, &grid(&panels, GAP, Rgb([40, 40, 48])))
 }

@@ -30,6 +30,8 @@ use fieldprobe_core::probe::{
     AnchorSampler, AnchorSamplerConfig, RaySampler, RaySamplerConfig, Supervision,
 };
 use fieldprobe_core::register_component;
+
+use crate::uniform::{UniformAnchors, uniform_pixel};
 use glam::Vec3;
 use rand::{Rng, RngCore};
 use serde::{Deserialize, Serialize};
@@ -183,14 +185,6 @@ impl Default for ImportanceRays {
             bandwidth: default_bandwidth(),
             uniform_fraction: 0.0,
         }
-    }
-}
-
-fn uniform_pixel(size: usize, rng: &mut dyn RngCore) -> PixelPos {
-    let hi = size as f32 - 0.5;
-    PixelPos {
-        col: rng.random_range(-0.5..hi),
-        row: rng.random_range(-0.5..hi),
     }
 }
 
@@ -494,14 +488,6 @@ impl ImportanceAnchorSampler {
     }
 }
 
-fn uniform_anchor(rng: &mut dyn RngCore) -> Vec3 {
-    Vec3::new(
-        rng.random_range(-0.5..0.5),
-        rng.random_range(-0.5..0.5),
-        rng.random_range(-0.5..0.5),
-    )
-}
-
 impl AnchorSampler for ImportanceAnchorSampler {
     fn sample_anchors(&self, object: &Supervision, n: usize, rng: &mut dyn RngCore) -> Vec<Vec3> {
         let contour = self.contour(object);
@@ -509,7 +495,7 @@ impl AnchorSampler for ImportanceAnchorSampler {
         (0..n)
             .map(|_| {
                 if contour.is_empty() || uniform_draw(fraction, rng) {
-                    uniform_anchor(rng)
+                    UniformAnchors::default().point(rng)
                 } else {
                     contour.sample(sigma, rng)
                 }
@@ -1011,7 +997,7 @@ mod tests {
         let far = |p: &Vec3| p.length() < 0.12 || p.length() > 0.55;
         let mut rng = ChaCha8Rng::seed_from_u64(24);
         let p_far = (0..200_000)
-            .filter(|_| far(&uniform_anchor(&mut rng)))
+            .filter(|_| far(&UniformAnchors::default().point(&mut rng)))
             .count() as f64
             / 200_000.0;
         let sampler = anchors(ImportanceAnchors {

@@ -22,13 +22,17 @@ impl RaySampler for UniformRays {
         n: usize,
         rng: &mut dyn RngCore,
     ) -> Vec<PixelPos> {
-        let hi = object.image_size() as f32 - 0.5;
-        (0..n)
-            .map(|_| PixelPos {
-                col: rng.random_range(-0.5..hi),
-                row: rng.random_range(-0.5..hi),
-            })
-            .collect()
+        let size = object.image_size();
+        (0..n).map(|_| uniform_pixel(size, rng)).collect()
+    }
+}
+
+/// One position uniform over a `size`² image (continuous, `[-½, size − ½]²`).
+pub fn uniform_pixel(size: usize, rng: &mut dyn RngCore) -> PixelPos {
+    let hi = size as f32 - 0.5;
+    PixelPos {
+        col: rng.random_range(-0.5..hi),
+        row: rng.random_range(-0.5..hi),
     }
 }
 
@@ -69,18 +73,21 @@ impl Default for UniformAnchors {
     }
 }
 
+impl UniformAnchors {
+    /// One point uniform in the cube.
+    pub fn point(&self, rng: &mut dyn RngCore) -> Vec3 {
+        let e = self.extent;
+        Vec3::new(
+            rng.random_range(-e..e),
+            rng.random_range(-e..e),
+            rng.random_range(-e..e),
+        )
+    }
+}
+
 impl AnchorSampler for UniformAnchors {
     fn sample_anchors(&self, _object: &Supervision, n: usize, rng: &mut dyn RngCore) -> Vec<Vec3> {
-        let e = self.extent;
-        (0..n)
-            .map(|_| {
-                Vec3::new(
-                    rng.random_range(-e..e),
-                    rng.random_range(-e..e),
-                    rng.random_range(-e..e),
-                )
-            })
-            .collect()
+        (0..n).map(|_| self.point(rng)).collect()
     }
 }
 

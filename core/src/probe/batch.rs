@@ -121,10 +121,14 @@ impl ProbeBatch {
             objects.iter().all(|o| o.anchors.len() == n),
             "equal anchor counts"
         );
-        // Per object: anchors in kept order (met ones first) and each anchor's new position.
+        // Per object: anchors in kept order (compacted: met ones first; else as sampled) and how
+        // many some ray meets.
         let orders: Vec<(Vec<u32>, usize)> = objects
             .iter()
             .map(|o| {
+                if !compact {
+                    return ((0..n as u32).collect(), n);
+                }
                 let mut met = vec![false; n];
                 for &a in &o.assignment.anchors {
                     met[a as usize] = true;
@@ -136,11 +140,8 @@ impl ProbeBatch {
                 (order, used)
             })
             .collect();
-        let kept = if compact {
-            orders.iter().map(|o| o.1).max().unwrap_or(0).max(1).min(n)
-        } else {
-            n
-        };
+        // The batch's largest met count (all `n` when not compacting).
+        let kept = orders.iter().map(|o| o.1).max().unwrap_or(0).max(1).min(n);
         let pad = (objects.len() * kept) as i32;
         let width = objects
             .iter()
