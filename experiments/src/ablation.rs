@@ -40,6 +40,7 @@ use fieldprobe_core::data::dataset::write_atomic;
 use fieldprobe_core::probe::{AnchorSamplerConfig, RaySamplerConfig};
 use fieldprobe_core::train::{checkpoint, step_rng};
 use serde::{Deserialize, Serialize};
+use tracing::{error, info};
 
 use crate::data::{CategoryData, ensure_dataset, load};
 use crate::evaluate::CategoryMetrics;
@@ -188,7 +189,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let mut status = vec![Status::Pending; file.entries.len()];
     for (i, (e, dir)) in file.entries.iter().zip(&dirs).enumerate() {
         status[i] = if finished[i] {
-            eprintln!(
+            info!(
                 "variant {}/{} '{}': finished, skipping ({})",
                 i + 1,
                 file.entries.len(),
@@ -197,7 +198,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
             );
             Status::Finished(Box::new(read_finished(e, dir)?))
         } else {
-            eprintln!(
+            info!(
                 "variant {}/{} '{}' → {}",
                 i + 1,
                 file.entries.len(),
@@ -211,12 +212,12 @@ pub fn run(args: &RunArgs) -> Result<()> {
             })();
             match outcome {
                 Ok(o) => {
-                    eprintln!("variant '{}': mean IoU {:.3}", e.name, o.metrics.mean_iou);
+                    info!("variant '{}': mean IoU {:.3}", e.name, o.metrics.mean_iou);
                     Status::Finished(Box::new(AblationEntry::new(e, &o.metrics, o.history)))
                 }
                 Err(err) => {
                     let msg = format!("{err:#}");
-                    eprintln!("variant '{}' failed: {msg}", e.name);
+                    error!("variant '{}' failed: {msg}", e.name);
                     Status::Failed(msg)
                 }
             }
@@ -309,23 +310,15 @@ pub fn write_outputs(
 
 /// The loss history of every finished entry (entry `i` in colour `i`, labelled `i + 1`), log y.
 pub fn training_curves(status: &[Status]) -> image::RgbImage {
-    let series: Vec<plot::Series> = status
+    let histories: Vec<(usize, &[(usize, f32)])> = status
         .iter()
         .enumerate()
         .filter_map(|(i, s)| match s {
-            Status::Finished(e) => Some(plot::Series {
-                points: e
-                    .loss_history
-                    .iter()
-                    .map(|&(s, l)| (s as f64, l as f64))
-                    .collect(),
-                color: plot::color(i).1,
-                label: (i + 1).to_string(),
-            }),
+            Status::Finished(e) => Some((i, e.loss_history.as_slice())),
             _ => None,
         })
         .collect();
-    plot::line_chart(&series, 800, 480, true).0
+    plot::loss_chart(&histories)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1006,6 +999,7 @@ mod tests {
             objects: ious.len(),
             views: 24,
             per_object,
+            mesh: None,
         };
         Metrics {
             experiment: "t".into(),

@@ -30,7 +30,7 @@ pub fn ensure_dataset(exp: &Experiment) -> Result<()> {
     if present {
         return Ok(());
     }
-    eprintln!(
+    tracing::info!(
         "data: generating {} into {}",
         d.categories
             .iter()

@@ -3,13 +3,24 @@
 
 use std::collections::BTreeMap;
 
+use std::path::Path;
+
+use anyhow::Result;
 use burn::prelude::*;
+use fieldprobe_core::data::voxelize::voxelize_nmr;
+use fieldprobe_core::data::{TriMesh, VoxelGrid};
+use fieldprobe_core::eval::surface::{
+    SurfaceMetrics, SurfaceSample, outer_surface, sample_surface, surface_metrics,
+};
 use fieldprobe_core::eval::{
-    encode_views, mean_shape, object_hull, predict_grids, render_field_silhouette,
+    encode_views, extract_field_mesh, mean_shape, object_hull, predict_grids,
+    render_field_silhouette,
 };
 use fieldprobe_core::field::FieldModel;
 use fieldprobe_core::geometry::NUM_VIEWS;
 use indicatif::ProgressBar;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::data::CategoryData;
@@ -34,6 +45,9 @@ pub struct CategoryMetrics {
     pub views: usize,
     /// Per object: id and mean IoU.
     pub per_object: Vec<(String, f32)>,
+    /// Metrics of extracted meshes (absent when `eval.mesh_views = 0`).
+    #[serde(default)]
+    pub mesh: Option<MeshMetrics>,
 }
 
 fn mean(v: &[f32]) -> f32 {
@@ -49,14 +63,83 @@ pub fn eval_views(n: usize) -> Vec<usize> {
     (0..n).map(|i| i * NUM_VIEWS / n).collect()
 }
 
-/// Evaluates `model` (in evaluation mode, on the plain `device`) on every category.
+/// Metrics of the meshes extracted from a category's predictions (see [`evaluate`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeshMetrics {
+    /// Input views meshed per object.
+    pub views: usize,
+    /// Meshes extracted (objects × views).
+    pub meshes: usize,
+    /// Meshes that came out empty (scored as the worst case, not skipped).
+    pub empty: usize,
+    /// NMR-protocol IoU of the extracted meshes: NMR's surface voxelization + fill of each mesh
+    /// against the ground-truth voxels.
+    pub iou: f32,
+    /// The 32³ grid IoU of the same predictions, for comparison.
+    pub grid_iou: f32,
+    /// Chamfer-L1 (not ×10), F-score and normal consistency against the ground-truth meshes;
+    /// absent when the dataset has no meshes (`DATA/meshes/<synset>/<id>.obj`).
+    pub chamfer_l1: Option<f32>,
+    pub fscore: Option<f32>,
+    pub normal_consistency: Option<f32>,
+    /// Points sampled per surface, and the F-score threshold.
+    pub surface_points: usize,
+    pub fscore_threshold: f32,
+}
+
+/// The views of `views` that are meshed: `n` evenly spaced among them.
+pub fn meshed_views(views: &[usize], n: usize) -> Vec<usize> {
+    (0..n.min(views.len()))
+        .map(|i| views[i * views.len() / n.min(views.len())])
+        .collect()
+}
+
+/// A ground-truth mesh's outer surface sample, if the dataset has the mesh.
+fn gt_surface(path: &Path, cfg: &EvalConfig, seed: u64) -> Result<Option<SurfaceSample>> {
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let mesh = TriMesh::load_obj(path)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let sample = sample_surface(&mesh, cfg.surface_points, &mut rng);
+    Ok(Some(outer_surface(&mesh, sample)))
+}
+
+/// One prediction's mesh scores: mesh IoU, grid IoU, surface metrics.
+struct MeshScore {
+    iou: f32,
+    grid_iou: f32,
+    empty: bool,
+    surface: Option<SurfaceMetrics>,
+}
+
+/// Scores the mesh extracted from one latent against an object's ground truth.
+pub fn score_mesh(
+    mesh: &TriMesh,
+    gt_voxels: &VoxelGrid,
+    gt_surface: Option<&SurfaceSample>,
+    cfg: &EvalConfig,
+    seed: u64,
+) -> (f32, Option<SurfaceMetrics>) {
+    let iou = voxelize_nmr(mesh, gt_voxels.resolution()).iou(gt_voxels);
+    let surface = gt_surface.map(|gt| {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let pred = sample_surface(mesh, cfg.surface_points, &mut rng);
+        surface_metrics(&pred, gt, cfg.fscore_threshold)
+    });
+    (iou, surface)
+}
+
+/// Evaluates `model` (in evaluation mode, on the plain `device`) on every category; `mesh_dir`
+/// is the dataset's `meshes/` folder (ground-truth meshes for the surface metrics), if any.
 pub fn evaluate(
     model: &FieldModel,
     data: &[CategoryData],
     cfg: &EvalConfig,
     per_object_fit: bool,
+    mesh_dir: Option<&Path>,
     device: &Device,
-) -> BTreeMap<String, CategoryMetrics> {
+) -> Result<BTreeMap<String, CategoryMetrics>> {
     let views = eval_views(cfg.views);
     let total: usize = data.iter().map(|c| c.eval.len()).sum();
     let bar = ProgressBar::new(total as u64).with_style(crate::progress::style("eval"));
@@ -77,7 +160,14 @@ pub fn evaluate(
             Vec::new(),
             Vec::new(),
         );
-        for ((obj, gt), id) in cat.eval.iter().zip(&cat.eval_gt).zip(&cat.eval_ids) {
+        let mut mesh_scores: Vec<MeshScore> = Vec::new();
+        for (o, ((obj, gt), id)) in cat
+            .eval
+            .iter()
+            .zip(&cat.eval_gt)
+            .zip(&cat.eval_ids)
+            .enumerate()
+        {
             let preds = predict_grids(model, obj, &views, res, device);
             let obj_iou = mean(&preds.iter().map(|p| p.iou(gt)).collect::<Vec<_>>());
             ious.push(obj_iou);
@@ -89,8 +179,41 @@ pub fn evaluate(
             if let Some(m) = &mean_gt {
                 mg.push(m.iou(gt));
             }
+            let latents = encode_views(model, obj, device);
+            if cfg.mesh_views > 0 {
+                let gt_mesh =
+                    mesh_dir.map(|d| d.join(cat.category.synset()).join(format!("{id}.obj")));
+                let gt_surf = match &gt_mesh {
+                    Some(p) => gt_surface(p, cfg, o as u64)?,
+                    None => None,
+                };
+                // (prediction index in `preds`, latent) per meshed view.
+                let meshed: Vec<(usize, Option<Tensor<2>>)> = match &latents {
+                    Some(l) => meshed_views(&views, cfg.mesh_views)
+                        .into_iter()
+                        .map(|v| {
+                            let i = views
+                                .iter()
+                                .position(|&w| w == v)
+                                .expect("a evaluated view");
+                            (i, Some(l.clone().narrow(0, v, 1)))
+                        })
+                        .collect(),
+                    None => vec![(0, None)],
+                };
+                for (i, z) in meshed {
+                    let mesh = extract_field_mesh(model, z.as_ref(), &cfg.extract, device);
+                    let (iou, surface) =
+                        score_mesh(&mesh, gt, gt_surf.as_ref(), cfg, 1000 + o as u64);
+                    mesh_scores.push(MeshScore {
+                        iou,
+                        grid_iou: preds[i].iou(gt),
+                        empty: mesh.faces.is_empty(),
+                        surface,
+                    });
+                }
+            }
             if per_object_fit {
-                let latent = encode_views(model, obj, device);
                 let s: Vec<f32> = obj
                     .supervision
                     .cameras
@@ -98,7 +221,7 @@ pub fn evaluate(
                     .zip(&obj.supervision.silhouettes)
                     .enumerate()
                     .map(|(v, (cam, gt_sil))| {
-                        let z = latent.as_ref().map(|l| l.clone().narrow(0, v, 1));
+                        let z = latents.as_ref().map(|l| l.clone().narrow(0, v, 1));
                         render_field_silhouette(
                             model,
                             z.as_ref(),
@@ -124,9 +247,34 @@ pub fn evaluate(
                 objects: cat.eval.len(),
                 views: if per_object_fit { 1 } else { views.len() },
                 per_object,
+                mesh: summarize(&mesh_scores, cfg, cat.eval.len()),
             },
         );
     }
     bar.finish_and_clear();
-    out
+    Ok(out)
+}
+
+/// The category's mesh metrics from its per-mesh scores (surface metrics only when every object
+/// had a ground-truth mesh, so the mean is over the same meshes as the IoU).
+fn summarize(scores: &[MeshScore], cfg: &EvalConfig, objects: usize) -> Option<MeshMetrics> {
+    if scores.is_empty() {
+        return None;
+    }
+    let surf: Vec<SurfaceMetrics> = scores.iter().filter_map(|s| s.surface).collect();
+    let all = surf.len() == scores.len();
+    let avg =
+        |f: fn(&SurfaceMetrics) -> f32| all.then(|| mean(&surf.iter().map(f).collect::<Vec<_>>()));
+    Some(MeshMetrics {
+        views: scores.len() / objects.max(1),
+        meshes: scores.len(),
+        empty: scores.iter().filter(|s| s.empty).count(),
+        iou: mean(&scores.iter().map(|s| s.iou).collect::<Vec<_>>()),
+        grid_iou: mean(&scores.iter().map(|s| s.grid_iou).collect::<Vec<_>>()),
+        chamfer_l1: avg(|m| m.chamfer_l1),
+        fscore: avg(|m| m.fscore),
+        normal_consistency: avg(|m| m.normal_consistency),
+        surface_points: cfg.surface_points,
+        fscore_threshold: cfg.fscore_threshold,
+    })
 }

@@ -8,21 +8,31 @@
 //! experiments list                                 registered components with example TOML
 //! experiments make-dataset --out DIR [...]         procedural or .obj meshes → published layout
 //! experiments check-dataset --data DIR             do silhouettes, cameras and voxels agree?
+//! experiments eval --run DIR [--data DIR]          recompute a run's metrics and pictures
+//! experiments reconstruct --run DIR --image IMG.png --out mesh.obj   a mesh from a picture
 //! ```
+//!
+//! Logs go through `tracing` (see [`logging`]; `FIELDPROBE_LOG=debug` for more).
 
 pub mod ablation;
 pub mod bench;
 pub mod check_dataset;
 pub mod contact_sheet;
 pub mod data;
+pub mod eval;
 pub mod evaluate;
 pub mod experiment;
+pub mod gallery;
 pub mod list;
+pub mod logging;
 pub mod make_dataset;
+pub mod pictures;
 pub mod plot;
 pub mod progress;
+pub mod reconstruct;
 pub mod report;
 pub mod run;
+pub mod run_dir;
 pub mod variants;
 
 use clap::{Parser, Subcommand};
@@ -60,6 +70,11 @@ enum Command {
     /// Load a dataset (ours or the published files) and report per category how its silhouettes,
     /// cameras and voxels agree (visual hull vs voxels).
     CheckDataset(check_dataset::Args),
+    /// Recompute a finished run's metrics, gallery and report from its latest checkpoint
+    /// (optionally on another dataset with --data).
+    Eval(eval::Args),
+    /// Reconstruct a mesh (and a turntable PNG) from a picture with a trained run's model.
+    Reconstruct(reconstruct::Args),
 }
 
 /// Runs the command line on the process arguments. Call it first thing in `main`.
@@ -71,6 +86,7 @@ pub fn cli_main() -> anyhow::Result<()> {
     if std::env::var_os("BURN_DEVICE").is_none() {
         unsafe { std::env::set_var("BURN_DEVICE", "flex") };
     }
+    logging::init();
     let cli = Cli::parse();
     match (cli.command, cli.run) {
         (Some(Command::Run(args)), _) | (None, Some(args)) => run::run(args),
@@ -81,6 +97,8 @@ pub fn cli_main() -> anyhow::Result<()> {
         }
         (Some(Command::MakeDataset(args)), _) => make_dataset::run(args),
         (Some(Command::CheckDataset(args)), _) => check_dataset::run(args),
+        (Some(Command::Eval(args)), _) => eval::run(args),
+        (Some(Command::Reconstruct(args)), _) => reconstruct::run(args),
         (None, None) => {
             use clap::CommandFactory;
             Cli::command().print_help()?;

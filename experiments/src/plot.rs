@@ -353,6 +353,20 @@ pub fn line_chart(
     (img, frame)
 }
 
+/// Training-loss histories `(step, loss)` on a log-y chart (800 × 480): history `(i, h)` in
+/// colour `i`, labelled `i + 1` in the legend.
+pub fn loss_chart(histories: &[(usize, &[(usize, f32)])]) -> RgbImage {
+    let series: Vec<Series> = histories
+        .iter()
+        .map(|&(i, h)| Series {
+            points: h.iter().map(|&(s, l)| (s as f64, f64::from(l))).collect(),
+            color: color(i).1,
+            label: (i + 1).to_string(),
+        })
+        .collect();
+    line_chart(&series, 800, 480, true).0
+}
+
 // ---------------------------------------------------------------------------------------------
 // Silhouettes with dots
 // ---------------------------------------------------------------------------------------------

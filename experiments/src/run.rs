@@ -8,15 +8,18 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use burn::module::Module;
+use fieldprobe_backends::Selected;
 use fieldprobe_core::data::dataset::write_atomic;
-use fieldprobe_core::field::FieldModelConfig;
+use fieldprobe_core::field::{FieldModel, FieldModelConfig};
 use fieldprobe_core::train::{Components, TrainObject, Trainer, checkpoint, prepare_step};
 use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
+use tracing::info;
 
 use crate::data::{CategoryData, ensure_dataset, load};
 use crate::evaluate::{CategoryMetrics, evaluate};
 use crate::experiment::{Experiment, load_experiment};
+use crate::plot;
 
 /// Arguments of a run.
 #[derive(clap::Args, Debug)]
@@ -132,19 +135,86 @@ pub fn run_one(
 ) -> Result<RunOutcome> {
     let ckpt = dir.join("checkpoints");
     let selected = exp.backend.select();
-    eprintln!("backend: {}", selected.description);
+    info!("backend: {}", selected.description);
     let comps = exp
         .components()
         .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
 
+    write_input_spec(dir, data)?;
     let (trainer, train_seconds) = train(exp, data, &comps, &selected.device, &ckpt, resume)?;
-    let final_loss = trainer.history.last().map(|h| h.1);
-    let history = trainer.history.clone();
+    let training = Training {
+        steps: trainer.step,
+        seconds: train_seconds,
+        history: trainer.history.clone(),
+    };
     let model = trainer.model.valid();
+    evaluate_run(exp, &model, data, dir, &selected, &training)
+}
 
+/// What training left for the report.
+#[derive(Clone, Debug, Default)]
+pub struct Training {
+    pub steps: usize,
+    pub seconds: f64,
+    /// `(step, mean loss of the interval)`.
+    pub history: Vec<(usize, f32)>,
+}
+
+/// `input.json`: what the model reads, so that `reconstruct` can bring any image to it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InputSpec {
+    /// Side of the square input images in pixels.
+    pub image_size: usize,
+}
+
+/// Writes `input.json` (the training images' size).
+fn write_input_spec(dir: &Path, data: &[CategoryData]) -> Result<()> {
+    let Some(size) = data
+        .iter()
+        .flat_map(|c| c.eval.first())
+        .map(|o| o.image_size)
+        .next()
+    else {
+        return Ok(());
+    };
+    let json = serde_json::to_string_pretty(&InputSpec { image_size: size })?;
+    write_atomic(&dir.join("input.json"), |w| {
+        std::io::Write::write_all(w, json.as_bytes())
+    })?;
+    Ok(())
+}
+
+/// Evaluates `model` (evaluation mode) on `data` and writes the run's outputs into `dir`:
+/// `metrics.json`, `gallery.png`, `training_curves.png` and `report.md` linking them (each
+/// atomically, the report last).
+pub fn evaluate_run(
+    exp: &Experiment,
+    model: &FieldModel,
+    data: &[CategoryData],
+    dir: &Path,
+    selected: &Selected,
+    training: &Training,
+) -> Result<RunOutcome> {
     let t0 = Instant::now();
     let per_object_fit = matches!(exp.model, FieldModelConfig::PerObject { .. });
-    let per_category = evaluate(&model, data, &exp.eval, per_object_fit, &selected.device);
+    let mesh_dir = exp.data.dir.join("meshes");
+    let mesh_dir = mesh_dir.is_dir().then_some(mesh_dir.as_path());
+    info!("evaluating on the {} split", exp.data.eval_split.name());
+    let per_category = evaluate(
+        model,
+        data,
+        &exp.eval,
+        per_object_fit,
+        mesh_dir,
+        &selected.device,
+    )?;
+    let eval_seconds = t0.elapsed().as_secs_f64();
+    let gallery = crate::gallery::write(dir, model, data, &exp.eval, &selected.device)?;
+    if !training.history.is_empty() {
+        let curve = plot::loss_chart(&[(0, training.history.as_slice())]);
+        plot::write_png(&dir.join("training_curves.png"), &curve)?;
+    }
     let metrics = Metrics {
         experiment: exp.name.clone(),
         mean_iou: mean_of(&per_category, |c| Some(c.iou)).unwrap_or(0.0),
@@ -155,10 +225,10 @@ pub fn run_one(
         per_category,
         split: exp.data.eval_split.name().into(),
         resolution: exp.eval.resolution,
-        steps: trainer.step,
-        train_seconds,
-        eval_seconds: t0.elapsed().as_secs_f64(),
-        final_loss,
+        steps: training.steps,
+        train_seconds: training.seconds,
+        eval_seconds,
+        final_loss: training.history.last().map(|h| h.1),
         backend: selected.backend.into(),
         device: selected.description.clone(),
     };
@@ -166,13 +236,13 @@ pub fn run_one(
     write_atomic(&dir.join("metrics.json"), |w| {
         std::io::Write::write_all(w, json.as_bytes())
     })?;
-    let report = crate::report::render(exp, &metrics);
+    let report = crate::report::render(exp, &metrics, &gallery, !training.history.is_empty());
     write_atomic(&dir.join("report.md"), |w| {
         std::io::Write::write_all(w, report.as_bytes())
     })?;
     Ok(RunOutcome {
         metrics,
-        history,
+        history: training.history.clone(),
         report,
     })
 }
@@ -189,7 +259,7 @@ fn train(
 ) -> Result<(Trainer, f64)> {
     let mut trainer = if resume {
         let t = checkpoint::load(&exp.model, device, ckpt)?;
-        eprintln!("resumed from {} at step {}", ckpt.display(), t.step);
+        info!("resumed from {} at step {}", ckpt.display(), t.step);
         t
     } else {
         Trainer::new(&exp.model, device, exp.seed)

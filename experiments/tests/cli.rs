@@ -252,3 +252,227 @@ fn list_shows_every_component_with_an_example() {
         assert!(out.contains(needle), "{needle} missing from:\n{out}");
     }
 }
+
+const TINY_RUN: &str = r#"
+name = "tiny"
+seed = 1
+backend = "flex"
+
+[data]
+dir = "DATA"
+categories = ["chair"]
+generate = { train = 2, val = 0, test = 1, seed = 0 }
+
+[model]
+type = "single_view"
+latent = 8
+encoder = { channels = [4, 8], blocks = [1, 1] }
+decoder = { hidden = [16] }
+
+[probe]
+anchors = 256
+rays_per_view = 32
+views = 2
+ray_sampler = { type = "uniform" }
+anchor_sampler = { type = "uniform" }
+
+[train]
+steps = 3
+batch = 2
+checkpoint_every = 0
+
+[eval]
+views = 2
+mesh_views = 1
+gallery_objects = 1
+surface_points = 2000
+extract = { refinements = 1 }
+"#;
+
+/// Every edge of `obj` is shared by exactly two faces, traversed once in each direction: closed
+/// and consistently oriented (what trimesh's `is_watertight` and `is_winding_consistent` check).
+fn closed_and_oriented(obj: &Path) -> (usize, bool) {
+    let mesh = fieldprobe_core::data::TriMesh::load_obj(obj).unwrap();
+    let mut edges = std::collections::HashMap::new();
+    for f in &mesh.faces {
+        for k in 0..3 {
+            *edges.entry((f[k], f[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    let ok = edges
+        .iter()
+        .all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1));
+    (mesh.faces.len(), ok)
+}
+
+#[test]
+fn a_run_reports_meshes_and_pictures_and_its_inputs_reconstruct() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let file = dir.path().join("tiny.toml");
+    std::fs::write(&file, TINY_RUN.replace("DATA", data.to_str().unwrap())).unwrap();
+    let run = dir.path().join("run");
+    let r = run.to_str().unwrap();
+    ok(&experiments(&[file.to_str().unwrap(), "--out", r]));
+
+    for name in [
+        "config.toml",
+        "input.json",
+        "metrics.json",
+        "report.md",
+        "gallery.png",
+        "training_curves.png",
+    ] {
+        assert!(run.join(name).is_file(), "{name}");
+    }
+    let metrics: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("metrics.json")).unwrap()).unwrap();
+    let mesh = &metrics["per_category"]["chair"]["mesh"];
+    assert_eq!(mesh["meshes"], 1, "{mesh}");
+    for key in [
+        "iou",
+        "grid_iou",
+        "chamfer_l1",
+        "fscore",
+        "normal_consistency",
+    ] {
+        let v = mesh[key]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{key} missing: {mesh}"));
+        assert!(v.is_finite() && v >= 0.0, "{key} = {v}");
+    }
+    let report = std::fs::read_to_string(run.join("report.md")).unwrap();
+    for needle in [
+        "## Meshes",
+        "Chamfer-L1 ×10",
+        "![gallery](gallery.png)",
+        "![training curve](training_curves.png)",
+    ] {
+        assert!(report.contains(needle), "{needle} not in\n{report}");
+    }
+    let gallery = image::open(run.join("gallery.png")).unwrap();
+    assert_eq!(gallery.height(), 128 + 8, "one row of 128-pixel panels");
+    assert_eq!(
+        gallery.width(),
+        8 * (128 + 4) + 4,
+        "input, 3 silhouettes, 4 turntable frames"
+    );
+
+    // Reconstruct from the gallery's input picture, scored against the object's mesh.
+    let inputs: Vec<_> = std::fs::read_dir(run.join("inputs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(inputs.len(), 1);
+    let id = std::fs::read_to_string(data.join("03001627_test_ids.txt")).unwrap();
+    let gt = data
+        .join("meshes/03001627")
+        .join(format!("{}.obj", id.trim()));
+    let out = dir.path().join("rec/mesh.obj");
+    let log = ok(&experiments(&[
+        "reconstruct",
+        "--run",
+        r,
+        "--image",
+        inputs[0].to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--gt-mesh",
+        gt.to_str().unwrap(),
+        "--frames",
+        "3",
+    ]));
+    assert!(log.contains("mesh IoU"), "{log}");
+    for name in [
+        "mesh.obj",
+        "mesh_turntable.png",
+        "mesh_input.png",
+        "mesh_metrics.json",
+    ] {
+        assert!(dir.path().join("rec").join(name).is_file(), "{name}");
+    }
+    let (faces, closed) = closed_and_oriented(&out);
+    assert!(faces == 0 || closed, "{faces} faces, not closed");
+    // The reconstruction's metrics are the evaluation's for that view (same model, same image).
+    let rec: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("rec/mesh_metrics.json")).unwrap(),
+    )
+    .unwrap();
+    let (a, b) = (
+        rec["grid_iou"].as_f64().unwrap(),
+        mesh["grid_iou"].as_f64().unwrap(),
+    );
+    assert!((a - b).abs() < 0.02, "reconstruct grid IoU {a} vs eval {b}");
+
+    // `eval` recomputes the same numbers from the checkpoint.
+    let again = dir.path().join("again");
+    ok(&experiments(&[
+        "eval",
+        "--run",
+        r,
+        "--out",
+        again.to_str().unwrap(),
+    ]));
+    let m2: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(again.join("metrics.json")).unwrap())
+            .unwrap();
+    // (Up to voxels whose φ sits at ½ within float noise of the CPU kernels.)
+    let close = |a: &serde_json::Value, b: &serde_json::Value| {
+        (a.as_f64().unwrap() - b.as_f64().unwrap()).abs() < 0.01
+    };
+    assert!(close(&m2["mean_iou"], &metrics["mean_iou"]), "{m2}");
+    assert!(
+        close(&m2["per_category"]["chair"]["mesh"]["iou"], &mesh["iou"]),
+        "{m2}"
+    );
+
+    // Clear errors.
+    let e = fails(&experiments(&[
+        "reconstruct",
+        "--run",
+        "/nonexistent/run",
+        "--image",
+        "x.png",
+        "--out",
+        "m.obj",
+    ]));
+    assert!(
+        e.contains("/nonexistent/run") && e.contains("no such run directory"),
+        "{e}"
+    );
+    let e = fails(&experiments(&[
+        "reconstruct",
+        "--run",
+        r,
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    assert!(e.contains("pass --image"), "{e}");
+    let junk = dir.path().join("junk.png");
+    std::fs::write(&junk, b"not a png").unwrap();
+    let e = fails(&experiments(&[
+        "reconstruct",
+        "--run",
+        r,
+        "--image",
+        junk.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    assert!(
+        e.contains("junk.png") && e.contains("cannot read image"),
+        "{e}"
+    );
+    let e = fails(&experiments(&[
+        "reconstruct",
+        "--run",
+        r,
+        "--image",
+        inputs[0].to_str().unwrap(),
+        "--out",
+        "m.stl",
+    ]));
+    assert!(e.contains(".obj or .ply"), "{e}");
+    let e = fails(&experiments(&["eval", "--run", data.to_str().unwrap()]));
+    assert!(e.contains("not a run directory"), "{e}");
+}

@@ -7,11 +7,17 @@
 //! * the category mean shape — the mean of the training objects' visual hulls, thresholded at ½:
 //!   the prior silhouettes alone give; beating it shows the model reads the image;
 //! * the mean of the training ground-truth voxels (`mean_gt_shape_iou`), a prior that needs 3D.
+//!
+//! [`surface`] adds the mesh metrics of Occupancy Networks and DVR (Chamfer-L1, F-score, normal
+//! consistency) between an extracted mesh and a ground-truth mesh.
+
+pub mod surface;
 
 use burn::prelude::*;
 
 use crate::data::hull::{HullTest, visual_hull};
-use crate::data::{GridFrame, Silhouette, VoxelGrid};
+use crate::data::{GridFrame, Silhouette, TriMesh, VoxelGrid};
+use crate::extract::{ExtractOptions, extract_mesh};
 use crate::field::FieldModel;
 use crate::geometry::{Camera, NUM_VIEWS, PixelPos};
 use crate::train::TrainObject;
@@ -93,6 +99,53 @@ pub fn predict_grids(
             res,
         )],
     }
+}
+
+/// The surface `φ = threshold` of a model's field for one latent (none for a per-object field),
+/// by MISE + marching cubes ([`crate::extract`]). As in [`render_silhouette`], φ is read only
+/// inside the field's domain `[-FIELD_HALF_EXTENT, FIELD_HALF_EXTENT]³` and is 0 outside it
+/// (never trained there): a shape that fills its domain up to a face is then capped on that face
+/// instead of running into the sampled cube's border, where NMR's voxelization would miss it.
+pub fn extract_field_mesh(
+    model: &FieldModel,
+    latent: Option<&Tensor<2>>,
+    opts: &ExtractOptions,
+    device: &Device,
+) -> TriMesh {
+    extract_mesh(
+        &mut |points| in_domain(points, |inside| field_values(model, latent, inside, device)),
+        opts,
+    )
+}
+
+/// `field` at the points (`[M·3]`) inside the field's domain, 0 at the others.
+pub fn in_domain(points: &[f32], field: impl FnOnce(&[f32]) -> Vec<f32>) -> Vec<f32> {
+    let inside: Vec<bool> = points
+        .chunks_exact(3)
+        .map(|p| p.iter().all(|c| c.abs() <= FIELD_HALF_EXTENT))
+        .collect();
+    let kept: Vec<f32> = points
+        .chunks_exact(3)
+        .zip(&inside)
+        .filter(|(_, k)| **k)
+        .flat_map(|(p, _)| p.iter().copied())
+        .collect();
+    let mut values = if kept.is_empty() {
+        Vec::new()
+    } else {
+        field(&kept)
+    }
+    .into_iter();
+    inside
+        .iter()
+        .map(|&k| {
+            if k {
+                values.next().expect("one value per point")
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 /// The centre-test 24-view visual hull of an object.
@@ -210,6 +263,34 @@ mod tests {
             let iou = rendered.iou(&exact);
             assert!(iou > 0.97, "view {view}: IoU {iou}");
         }
+    }
+
+    #[test]
+    fn fields_are_zero_outside_their_domain() {
+        let pts = [
+            0.0, 0.0, 0.0, 0.6, 0.0, 0.0, 0.1, -0.5, 0.2, 0.0, 0.0, -0.51,
+        ];
+        let mut seen = 0;
+        let v = in_domain(&pts, |inside| {
+            seen = inside.len() / 3;
+            vec![0.9; inside.len() / 3]
+        });
+        assert_eq!(seen, 2, "only the points inside are evaluated");
+        assert_eq!(v, vec![0.9, 0.0, 0.9, 0.0]);
+        // A field occupied everywhere gives the domain's cube, capped inside the sampled one.
+        let cube = extract_mesh(
+            &mut |p| in_domain(p, |q| vec![1.0; q.len() / 3]),
+            &ExtractOptions {
+                refinements: 0,
+                ..ExtractOptions::default()
+            },
+        );
+        let (lo, hi) = cube.bounds();
+        assert!(
+            hi.max_element() <= FIELD_HALF_EXTENT + 0.02
+                && lo.min_element() >= -FIELD_HALF_EXTENT - 0.02
+        );
+        assert!(hi.min_element() > 0.45, "{hi}");
     }
 
     #[test]

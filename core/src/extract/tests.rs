@@ -489,3 +489,25 @@ fn ply_and_obj_round_trip() {
     let e = write_mesh(&m, &dir.path().join("sphere.stl")).unwrap_err();
     assert!(e.to_string().contains("sphere.stl"), "{e}");
 }
+
+#[test]
+fn extracted_meshes_voxelize_solid_in_the_nmr_protocol() {
+    // The default grid is aligned with NMR's lattice, so lattice lines meet the surface at mesh
+    // vertices: the voxelizer's inclusive test must still close the shell, or the fill leaks and
+    // only the shell remains.
+    use crate::data::voxelize::voxelize_nmr;
+    use crate::data::{GridFrame, VoxelGrid};
+    let (mesh, _, _) = run(sphere(0.3), &ExtractOptions::default());
+    let nmr = voxelize_nmr(&mesh, 32);
+    let frame = GridFrame::new(32);
+    let centres = VoxelGrid::from_fn(32, |i, j, k, _| frame.centre(i, j, k).length() < 0.29);
+    assert!(centres.count() > 3000, "{} voxels inside", centres.count());
+    // NMR's voxelization is the centre test dilated: it contains every inside centre.
+    assert_eq!(centres.fraction_inside(&nmr), 1.0, "the fill leaked");
+    assert!(
+        nmr.count() < centres.count() * 3 / 2,
+        "{} vs {}",
+        nmr.count(),
+        centres.count()
+    );
+}

@@ -79,15 +79,7 @@ pub fn read(root: &Path, category: Category, split: Split) -> Result<ObjectSet> 
                 ));
             }
             set.image_size = s;
-            let plane = s * s;
-            let mut planes = vec![0u8; 4 * plane];
-            for (p, px) in rgb.pixels().enumerate() {
-                for ch in 0..3 {
-                    planes[ch * plane + p] = 255 - px[ch];
-                }
-            }
-            planes[3 * plane..].copy_from_slice(mask.as_raw());
-            set.images.extend_from_slice(&planes);
+            set.images.extend(super::kato_planes(&rgb, &mask));
         }
         set.ids.push(id.clone());
     }

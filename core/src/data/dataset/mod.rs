@@ -190,6 +190,22 @@ pub fn encode_kato_view(view: &RenderedView) -> Vec<u8> {
     out
 }
 
+/// A natural-colour RGB image (composited over white) and its 8-bit mask as Kato's `(4, S, S)`
+/// planes: RGB inverted (`255 − c`, so a white background becomes 0) and the mask as alpha. The
+/// in-memory convention every reader converts to (DVR's PNGs, images given to `reconstruct`).
+pub fn kato_planes(rgb: &image::RgbImage, mask: &image::GrayImage) -> Vec<u8> {
+    assert_eq!(rgb.dimensions(), mask.dimensions(), "image and mask sizes");
+    let plane = mask.as_raw().len();
+    let mut planes = vec![0u8; 4 * plane];
+    for (p, px) in rgb.pixels().enumerate() {
+        for ch in 0..3 {
+            planes[ch * plane + p] = 255 - px[ch];
+        }
+    }
+    planes[3 * plane..].copy_from_slice(mask.as_raw());
+    planes
+}
+
 /// `[0, 1]` → `0..=255`, rounded.
 pub fn to_u8(x: f32) -> u8 {
     (x.clamp(0.0, 1.0) * 255.0).round() as u8

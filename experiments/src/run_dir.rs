@@ -1,0 +1,76 @@
+//! An existing run directory (`config.toml`, `checkpoints/`, `input.json`), opened to evaluate
+//! it again or to reconstruct meshes with its model.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, anyhow, bail};
+use burn::prelude::*;
+use fieldprobe_core::field::FieldModel;
+use fieldprobe_core::geometry::camera::NMR_IMAGE_SIZE;
+use fieldprobe_core::train::checkpoint::{self, CheckpointState};
+
+use crate::experiment::{Experiment, load_experiment};
+use crate::run::InputSpec;
+
+/// A run directory with its resolved experiment and latest checkpoint.
+#[derive(Debug)]
+pub struct RunDir {
+    pub dir: PathBuf,
+    /// The resolved experiment the run was made with (`config.toml`).
+    pub exp: Experiment,
+    /// The latest complete checkpoint.
+    pub state: CheckpointState,
+}
+
+impl RunDir {
+    /// Opens `dir`; the errors say what is missing (not a directory, not a run, no checkpoint).
+    pub fn open(dir: &Path) -> Result<Self> {
+        if !dir.is_dir() {
+            bail!("{}: no such run directory", dir.display());
+        }
+        let config = dir.join("config.toml");
+        if !config.is_file() {
+            bail!(
+                "{}: not a run directory (no config.toml; an ablation keeps one run per variant in its sub-directories)",
+                dir.display()
+            );
+        }
+        let exp = load_experiment(&config)?;
+        let ckpt = dir.join("checkpoints");
+        let state = checkpoint::latest(&ckpt)?.ok_or_else(|| {
+            anyhow!(
+                "{}: no checkpoint yet ({} is missing); train the run first",
+                dir.display(),
+                ckpt.join("latest.json").display()
+            )
+        })?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            exp,
+            state,
+        })
+    }
+
+    /// The model of the latest checkpoint, on `device`, in evaluation mode.
+    pub fn model(&self, device: &Device) -> Result<FieldModel> {
+        Ok(checkpoint::load_model(
+            &self.exp.model,
+            device,
+            &self.dir.join("checkpoints"),
+        )?)
+    }
+
+    /// The side of the images the model was trained on (`input.json`; runs made before it was
+    /// written used NMR's 64).
+    pub fn input_size(&self) -> Result<usize> {
+        let path = self.dir.join("input.json");
+        if !path.is_file() {
+            return Ok(NMR_IMAGE_SIZE);
+        }
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let spec: InputSpec =
+            serde_json::from_str(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+        Ok(spec.image_size)
+    }
+}
