@@ -18,7 +18,6 @@ use fieldprobe_core::eval::{
 };
 use fieldprobe_core::field::FieldModel;
 use fieldprobe_core::geometry::NUM_VIEWS;
-use indicatif::ProgressBar;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -142,7 +141,7 @@ pub fn evaluate(
 ) -> Result<BTreeMap<String, CategoryMetrics>> {
     let views = eval_views(cfg.views);
     let total: usize = data.iter().map(|c| c.eval.len()).sum();
-    let bar = ProgressBar::new(total as u64).with_style(crate::progress::style("eval"));
+    let bar = crate::progress::Progress::new("eval", total, 0);
     let mut out = BTreeMap::new();
     for cat in data {
         let res = cfg.resolution;
@@ -234,7 +233,7 @@ pub fn evaluate(
                     .collect();
                 sils.push(mean(&s));
             }
-            bar.inc(1);
+            bar.inc();
         }
         out.insert(
             cat.category.name().to_string(),
@@ -251,7 +250,7 @@ pub fn evaluate(
             },
         );
     }
-    bar.finish_and_clear();
+    bar.finish();
     Ok(out)
 }
 

@@ -11,7 +11,6 @@ use fieldprobe_core::data::procedural::{generate, object_rng};
 use fieldprobe_core::data::render::RenderOptions;
 use fieldprobe_core::data::voxelize::Voxelizer;
 use fieldprobe_core::data::{Category, TriMesh};
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
 /// Arguments of `make-dataset`.
@@ -107,18 +106,12 @@ pub fn run(args: Args) -> Result<()> {
         supersample: args.supersample.max(1),
         ..RenderOptions::default()
     };
-    let bar = ProgressBar::new(total as u64).with_style(
-        ProgressStyle::with_template(
-            "{spinner} {msg:<18} [{bar:30}] {pos}/{len} objects, {per_sec}, eta {eta}",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
+    let bar = crate::progress::Progress::new("render", total, 0);
     let start = Instant::now();
     let mut sets = Vec::new();
     let mut counts = Vec::new();
     for job in jobs {
-        bar.set_message(format!("{} {}", job.category, job.split));
+        bar.message(format!("{} {}", job.category, job.split));
         let records: Vec<(String, ObjectRecord)> = job
             .objects
             .par_iter()
@@ -137,7 +130,7 @@ pub fn run(args: Args) -> Result<()> {
                     }
                     Source::Mesh(mesh) => ObjectRecord::from_mesh(mesh, args.voxelizer, &opts),
                 };
-                bar.inc(1);
+                bar.inc();
                 Ok((id.clone(), record))
             })
             .collect::<Result<_>>()?;
@@ -157,7 +150,7 @@ pub fn run(args: Args) -> Result<()> {
         });
         sets.push(set);
     }
-    bar.finish_and_clear();
+    bar.finish();
     let elapsed = start.elapsed().as_secs_f64();
     DatasetInfo {
         source: if args.meshes.is_some() {

@@ -1,6 +1,15 @@
-//! Progress bars with a rate and an ETA, shared by the subcommands.
+//! Progress of long work with a rate and an ETA: an indicatif bar on a terminal, and — where
+//! stderr is not a terminal (CI, `2> log`), where the bar would stay hidden — a `tracing` line
+//! every [`LOG_EVERY`], so that logs show progress too.
 
-use indicatif::ProgressStyle;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressStyle};
+use tracing::info;
+
+/// How often a hidden bar logs a line.
+pub const LOG_EVERY: Duration = Duration::from_secs(30);
 
 /// A bar labelled `label` showing position, rate and ETA.
 pub fn style(label: &str) -> ProgressStyle {
@@ -9,4 +18,130 @@ pub fn style(label: &str) -> ProgressStyle {
     ))
     .expect("valid template")
     .progress_chars("=> ")
+}
+
+/// Progress through `len` units of work (thread-safe).
+#[derive(Debug)]
+pub struct Progress {
+    bar: ProgressBar,
+    label: String,
+    /// Position when this process started (resumed work does not count towards the rate).
+    first: u64,
+    start: Instant,
+    last_log: Mutex<Instant>,
+}
+
+impl Progress {
+    /// Starts at `position` of `len`.
+    pub fn new(label: &str, len: usize, position: usize) -> Self {
+        let bar = ProgressBar::new(len as u64).with_style(style(label));
+        bar.set_position(position as u64);
+        let now = Instant::now();
+        Self {
+            bar,
+            label: label.into(),
+            first: position as u64,
+            start: now,
+            last_log: Mutex::new(now),
+        }
+    }
+
+    /// Moves to `position` with a message (e.g. the loss).
+    pub fn set(&self, position: usize, message: String) {
+        self.bar.set_message(message);
+        self.bar.set_position(position as u64);
+        self.maybe_log();
+    }
+
+    /// Sets the message only.
+    pub fn message(&self, message: String) {
+        self.bar.set_message(message);
+    }
+
+    /// One more unit done.
+    pub fn inc(&self) {
+        self.bar.inc(1);
+        self.maybe_log();
+    }
+
+    fn maybe_log(&self) {
+        if !self.bar.is_hidden() {
+            return;
+        }
+        let mut last = self.last_log.lock().expect("progress lock");
+        if last.elapsed() >= LOG_EVERY {
+            *last = Instant::now();
+            info!("{}", self.line());
+        }
+    }
+
+    /// `label pos/len (pct%) msg, rate/s, eta …`.
+    fn line(&self) -> String {
+        line(
+            &self.label,
+            self.bar.position(),
+            self.bar.length().unwrap_or(0),
+            self.first,
+            self.start.elapsed(),
+            &self.bar.message(),
+        )
+    }
+
+    /// Clears the bar and logs the total.
+    pub fn finish(&self) {
+        self.bar.finish_and_clear();
+        let done = self.bar.position().saturating_sub(self.first);
+        info!(
+            "{}: {done} done in {:.1} s",
+            self.label,
+            self.start.elapsed().as_secs_f64()
+        );
+    }
+
+    /// Leaves the bar as it is (on an error).
+    pub fn abandon(&self) {
+        self.bar.abandon();
+    }
+}
+
+/// The log line of a hidden bar: position, percentage, message, rate since `first`, ETA.
+pub fn line(
+    label: &str,
+    pos: u64,
+    len: u64,
+    first: u64,
+    elapsed: Duration,
+    message: &str,
+) -> String {
+    let rate = pos.saturating_sub(first) as f64 / elapsed.as_secs_f64().max(1e-9);
+    let pct = if len > 0 {
+        100.0 * pos as f64 / len as f64
+    } else {
+        100.0
+    };
+    let eta = if rate > 0.0 {
+        let s = (len.saturating_sub(pos) as f64 / rate).round() as u64;
+        format!("{}m{:02}s", s / 60, s % 60)
+    } else {
+        "?".into()
+    };
+    let msg = if message.is_empty() {
+        String::new()
+    } else {
+        format!(" {message}")
+    };
+    format!("{label} {pos}/{len} ({pct:.0}%){msg}, {rate:.2}/s, eta {eta}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_lines_give_rate_and_eta_from_work_done_here() {
+        // Resumed at 100 of 1000; 50 more in 10 s: 5/s, 850 left → 170 s.
+        let l = line("train", 150, 1000, 100, Duration::from_secs(10), "loss 0.2");
+        assert_eq!(l, "train 150/1000 (15%) loss 0.2, 5.00/s, eta 2m50s");
+        assert!(line("eval", 0, 10, 0, Duration::from_secs(1), "").ends_with("eta ?"));
+    }
 }

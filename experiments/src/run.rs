@@ -12,7 +12,6 @@ use fieldprobe_backends::Selected;
 use fieldprobe_core::data::dataset::write_atomic;
 use fieldprobe_core::field::{FieldModel, FieldModelConfig};
 use fieldprobe_core::train::{Components, TrainObject, Trainer, checkpoint, prepare_step};
-use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
 use tracing::info;
 
@@ -20,6 +19,7 @@ use crate::data::{CategoryData, ensure_dataset, load};
 use crate::evaluate::{CategoryMetrics, evaluate};
 use crate::experiment::{Experiment, load_experiment};
 use crate::plot;
+use crate::progress::Progress;
 
 /// Arguments of a run.
 #[derive(clap::Args, Debug)]
@@ -268,8 +268,7 @@ fn train(
     let spec = exp.probe_spec();
     let steps = exp.train.steps;
     let log_every = (steps / 100).max(1);
-    let bar = ProgressBar::new(steps as u64).with_style(crate::progress::style("train"));
-    bar.set_position(trainer.step as u64);
+    let bar = Progress::new("train", steps, trainer.step);
     let t0 = Instant::now();
     let mut acc = (0.0f32, 0usize);
     while trainer.step < steps {
@@ -293,13 +292,12 @@ fn train(
             trainer.history.push((trainer.step, acc.0 / acc.1 as f32));
             acc = (0.0, 0);
         }
-        bar.set_message(format!("loss {:.4}", stats.loss));
-        bar.set_position(trainer.step as u64);
+        bar.set(trainer.step, format!("loss {:.4}", stats.loss));
         let every = exp.train.checkpoint_every;
         if (every > 0 && trainer.step % every == 0) || trainer.step == steps {
             checkpoint::save(&trainer, ckpt)?;
         }
     }
-    bar.finish_and_clear();
+    bar.finish();
     Ok((trainer, t0.elapsed().as_secs_f64()))
 }
