@@ -170,3 +170,47 @@ fn silhouettes_are_antialiased_and_symmetric_for_a_centred_sphere() {
     let disc = std::f32::consts::PI * half * half;
     assert!((area0 - disc).abs() / disc < 0.03, "{area0} vs {disc}");
 }
+
+/// The mesh metrics of a perfect prediction: a field that is exactly a procedural object's
+/// occupancy, meshed as the evaluation meshes a model's field, scores mesh IoU ≈ 1 against the
+/// object's NMR voxels (both are NMR voxelizations of nearly the same surface), while the grid
+/// IoU (centre test) of the same field is far lower, since NMR's ground truth is dilated
+/// (measured: 0.83 for this table, 0.58 for this chair, mesh IoU 1.000 for both); and at
+/// 100 000 points its Chamfer-L1 is a fraction of a voxel and its F-score ≈ 1.
+#[test]
+fn a_perfect_field_scores_near_one_on_meshes_and_lower_on_the_centre_grid() {
+    use fieldprobe_core::data::GridFrame;
+    use fieldprobe_core::data::voxelize::winding_number;
+    use fieldprobe_core::eval::surface::{outer_surface, sample_surface, surface_metrics};
+    use fieldprobe_core::eval::{grid_points, in_domain, occupancy_grid};
+    use fieldprobe_core::extract::{ExtractOptions, extract_mesh};
+    use rand::SeedableRng;
+
+    for category in [Category::Table, Category::Chair] {
+        let gt = generate(category, &mut object_rng(0, category, 2, 0));
+        let occupancy = |p: &[f32]| -> Vec<f32> {
+            p.chunks_exact(3)
+                .map(|q| (winding_number(&gt, Vec3::from_slice(q)).abs() >= 0.5) as u8 as f32)
+                .collect()
+        };
+        let mesh = extract_mesh(&mut |p| in_domain(p, occupancy), &ExtractOptions::default());
+        let truth = voxelize_nmr(&gt, R);
+        let mesh_iou = voxelize_nmr(&mesh, R).iou(&truth);
+        let grid_iou = occupancy_grid(&occupancy(&grid_points(R)), R).iou(&truth);
+        assert!(mesh_iou > 0.9, "{category}: mesh IoU {mesh_iou}");
+        assert!(
+            grid_iou < mesh_iou,
+            "{category}: grid {grid_iou} vs mesh {mesh_iou}"
+        );
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+        let gt_s = outer_surface(&gt, sample_surface(&gt, 100_000, &mut rng));
+        let pred_s = sample_surface(&mesh, 100_000, &mut rng);
+        let m = surface_metrics(&pred_s, &gt_s, 0.01);
+        let voxel = GridFrame::new(R).voxel_size();
+        assert!(m.chamfer_l1 < 0.25 * voxel, "{category}: {m:?}");
+        assert!(
+            m.fscore > 0.8 && m.normal_consistency > 0.8,
+            "{category}: {m:?}"
+        );
+    }
+}
