@@ -82,8 +82,9 @@ pub fn outer_surface(mesh: &TriMesh, sample: SurfaceSample) -> SurfaceSample {
             .par_iter()
             .zip(&sample.normals)
             .map(|(&p, &n)| {
-                let w = |q: Vec3| winding_number(mesh, q).abs();
-                w(p + n * EPS).min(w(p - n * EPS)) < 0.5
+                // Short-circuits: with outward normals the first side is usually outside.
+                let outside = |q: Vec3| winding_number(mesh, q).abs() < 0.5;
+                outside(p + n * EPS) || outside(p - n * EPS)
             })
             .collect()
     };
