@@ -93,15 +93,23 @@ pub fn meshed_views(views: &[usize], n: usize) -> Vec<usize> {
         .collect()
 }
 
-/// A ground-truth mesh's outer surface sample, if the dataset has the mesh.
+/// The reference sample of a ground-truth mesh: `cfg.surface_points` points on its outer surface
+/// (see `eval::surface::outer_surface`), drawn with `seed`.
+pub fn reference_surface(mesh: &TriMesh, cfg: &EvalConfig, seed: u64) -> SurfaceSample {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    outer_surface(mesh, sample_surface(mesh, cfg.surface_points, &mut rng))
+}
+
+/// [`reference_surface`] of the ground-truth mesh at `path`, if the dataset has it.
 fn gt_surface(path: &Path, cfg: &EvalConfig, seed: u64) -> Result<Option<SurfaceSample>> {
     if !path.is_file() {
         return Ok(None);
     }
-    let mesh = TriMesh::load_obj(path)?;
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let sample = sample_surface(&mesh, cfg.surface_points, &mut rng);
-    Ok(Some(outer_surface(&mesh, sample)))
+    Ok(Some(reference_surface(
+        &TriMesh::load_obj(path)?,
+        cfg,
+        seed,
+    )))
 }
 
 /// One prediction's mesh scores: mesh IoU, grid IoU, surface metrics.
@@ -167,7 +175,8 @@ pub fn evaluate(
             .zip(&cat.eval_ids)
             .enumerate()
         {
-            let preds = predict_grids(model, obj, &views, res, device);
+            let latents = encode_views(model, obj, device);
+            let preds = predict_grids(model, latents.as_ref(), &views, res, device);
             let obj_iou = mean(&preds.iter().map(|p| p.iou(gt)).collect::<Vec<_>>());
             ious.push(obj_iou);
             per_object.push((id.clone(), obj_iou));
@@ -178,7 +187,6 @@ pub fn evaluate(
             if let Some(m) = &mean_gt {
                 mg.push(m.iou(gt));
             }
-            let latents = encode_views(model, obj, device);
             if cfg.mesh_views > 0 {
                 let gt_mesh =
                     mesh_dir.map(|d| d.join(cat.category.synset()).join(format!("{id}.obj")));

@@ -12,7 +12,7 @@ use tracing::info;
 pub const LOG_EVERY: Duration = Duration::from_secs(30);
 
 /// A bar labelled `label` showing position, rate and ETA.
-pub fn style(label: &str) -> ProgressStyle {
+fn style(label: &str) -> ProgressStyle {
     ProgressStyle::with_template(&format!(
         "{label:<6} [{{bar:30}}] {{pos}}/{{len}} {{msg}} {{per_sec}} eta {{eta}}"
     ))

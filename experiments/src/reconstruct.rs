@@ -22,17 +22,15 @@ use burn::prelude::*;
 use fieldprobe_core::data::TriMesh;
 use fieldprobe_core::data::dataset::{kato_planes, write_atomic};
 use fieldprobe_core::data::voxelize::voxelize_nmr;
-use fieldprobe_core::eval::surface::{SurfaceMetrics, outer_surface, sample_surface};
-use fieldprobe_core::eval::{extract_field_mesh, field_values, grid_points, occupancy_grid};
+use fieldprobe_core::eval::surface::SurfaceMetrics;
+use fieldprobe_core::eval::{extract_field_mesh, predict_grid};
 use fieldprobe_core::extract::write_mesh;
 use image::imageops::FilterType;
 use image::{GrayImage, Luma, Rgb, RgbImage};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use tracing::info;
 
-use crate::evaluate::score_mesh;
+use crate::evaluate::{reference_surface, score_mesh};
 use crate::run_dir::RunDir;
 use crate::{pictures, plot};
 
@@ -247,16 +245,11 @@ fn compare(
     let gt_mesh = TriMesh::load_obj(gt)?;
     let res = cfg.resolution;
     let gt_voxels = voxelize_nmr(&gt_mesh, res);
-    let mut rng = ChaCha8Rng::seed_from_u64(0);
-    let gt_surface = outer_surface(
-        &gt_mesh,
-        sample_surface(&gt_mesh, cfg.surface_points, &mut rng),
-    );
+    let gt_surface = reference_surface(&gt_mesh, cfg, 0);
     let (mesh_iou, surface) = score_mesh(mesh, &gt_voxels, Some(&gt_surface), cfg, 1);
-    let grid = occupancy_grid(&field_values(model, latent, &grid_points(res), device), res);
     Ok(ReconstructMetrics {
         mesh_iou,
-        grid_iou: grid.iou(&gt_voxels),
+        grid_iou: predict_grid(model, latent, res, device).iou(&gt_voxels),
         surface: surface.expect("a reference surface was given"),
         fscore_threshold: cfg.fscore_threshold,
         surface_points: cfg.surface_points,

@@ -76,28 +76,32 @@ pub fn occupancy_grid(values: &[f32], res: usize) -> VoxelGrid {
     }
 }
 
-/// Predicted voxel grids of an object, one per input view in `views` (a single one for a
-/// per-object field).
+/// The predicted voxel grid of one latent (none for a per-object field): φ at the grid's voxel
+/// centres, thresholded at ½.
+pub fn predict_grid(
+    model: &FieldModel,
+    latent: Option<&Tensor<2>>,
+    res: usize,
+    device: &Device,
+) -> VoxelGrid {
+    occupancy_grid(&field_values(model, latent, &grid_points(res), device), res)
+}
+
+/// Predicted voxel grids of an object from its view latents ([`encode_views`]), one per input
+/// view in `views` (a single one for a per-object field, which has no latents).
 pub fn predict_grids(
     model: &FieldModel,
-    obj: &TrainObject,
+    latents: Option<&Tensor<2>>,
     views: &[usize],
     res: usize,
     device: &Device,
 ) -> Vec<VoxelGrid> {
-    let points = grid_points(res);
-    match encode_views(model, obj, device) {
+    match latents {
         Some(latents) => views
             .iter()
-            .map(|&v| {
-                let z = latents.clone().narrow(0, v, 1);
-                occupancy_grid(&field_values(model, Some(&z), &points, device), res)
-            })
+            .map(|&v| predict_grid(model, Some(&latents.clone().narrow(0, v, 1)), res, device))
             .collect(),
-        None => vec![occupancy_grid(
-            &field_values(model, None, &points, device),
-            res,
-        )],
+        None => vec![predict_grid(model, None, res, device)],
     }
 }
 
