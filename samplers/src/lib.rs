@@ -23,10 +23,25 @@ pub use uniform::{UniformAnchors, UniformRays};
 #[cfg(test)]
 mod test_support {
     use fieldprobe_core::data::Silhouette;
+    use fieldprobe_core::geometry::PixelPos;
     use fieldprobe_core::probe::Supervision;
 
     /// An object with empty silhouettes (samplers here ignore them).
     pub fn blank() -> Supervision {
         Supervision::nmr(vec![Silhouette::empty(64); 24])
+    }
+
+    /// Asserts that pixels of a 64-pixel image fall evenly into its four quadrants: each count
+    /// within 4σ of a binomial with p = ¼ (what a uniform sample does).
+    pub fn assert_even_quadrants(px: &[PixelPos]) {
+        let mut q = [0usize; 4];
+        for p in px {
+            q[(p.col >= 31.5) as usize + 2 * (p.row >= 31.5) as usize] += 1;
+        }
+        let n = px.len() as f32;
+        let sd = (n * 0.25 * 0.75).sqrt();
+        for c in q {
+            assert!((c as f32 - n / 4.0).abs() < 4.0 * sd, "{q:?}");
+        }
     }
 }

@@ -114,23 +114,19 @@ register_component!(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_support::blank;
+    use crate::test_support::{assert_even_quadrants, blank};
     use rand::SeedableRng;
 
     #[test]
     fn uniform_rays_fill_the_image_evenly() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
         let px = UniformRays {}.sample_pixels(&blank(), 0, 64_000, &mut rng);
+        assert!(
+            px.iter()
+                .all(|p| (-0.5..63.5).contains(&p.col) && (-0.5..63.5).contains(&p.row))
+        );
         // Quadrant counts of a uniform sample: each ≈ n/4 within 4σ of a binomial.
-        let mut q = [0usize; 4];
-        for p in &px {
-            assert!((-0.5..63.5).contains(&p.col) && (-0.5..63.5).contains(&p.row));
-            q[(p.col >= 31.5) as usize + 2 * (p.row >= 31.5) as usize] += 1;
-        }
-        let sd = (64_000.0f32 * 0.25 * 0.75).sqrt();
-        for c in q {
-            assert!((c as f32 - 16_000.0).abs() < 4.0 * sd, "{q:?}");
-        }
+        assert_even_quadrants(&px);
     }
 
     #[test]
