@@ -1,4 +1,4 @@
-//! Regularizers: extra loss terms on the field, evaluated where the probe put anchors.
+//! Regularizers: extra loss terms on the field, evaluated around the step's sampled anchors.
 
 use std::fmt::Debug;
 
@@ -19,18 +19,20 @@ impl FieldQuery<'_> {
     pub fn eval(&self, points: Tensor<3>) -> Tensor<2> {
         self.model.decode(self.latent.clone(), points)
     }
+
+    /// The logits of φ at `points` `[B, M, 3]` → `[B, M]` (`φ = sigmoid(logits)`).
+    pub fn logits(&self, points: Tensor<3>) -> Tensor<2> {
+        self.model.decode_logits(self.latent.clone(), points)
+    }
 }
 
 /// A weighted loss term on the field.
 pub trait Regularizer: Send + Sync + Debug {
-    /// The term (already multiplied by its weight) for anchors `[B, N, 3]` with field values
-    /// `phi` `[B, N]`; `None` when it contributes nothing this step.
-    fn loss(
-        &self,
-        field: &FieldQuery<'_>,
-        anchors: &Tensor<3>,
-        phi: &Tensor<2>,
-    ) -> Option<Tensor<1>>;
+    /// The term (already multiplied by its weight) around the step's anchors `[B, N, 3]`: every
+    /// anchor the samplers drew for each object, whether a ray met it or not (the inside of a
+    /// silhouette, which no ray constrains, is where a prior matters most). `None` when it
+    /// contributes nothing this step. A regularizer evaluates the field itself where it needs it.
+    fn loss(&self, field: &FieldQuery<'_>, anchors: &Tensor<3>) -> Option<Tensor<1>>;
 }
 
 /// The TOML/serde side of a regularizer.

@@ -49,7 +49,7 @@ use crate::plot;
 use crate::run::{Metrics, RunArgs, prepare_dir, run_one};
 use crate::variants::{AblationFile, Variant, inline_of};
 
-/// One finished entry as `ablation.json` lists it.
+/// One finished entry as `ablation.json` lists it: the mean over its seeds.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AblationEntry {
     /// The entry's name (`base_name` for the base).
@@ -60,40 +60,119 @@ pub struct AblationEntry {
     pub overrides: Vec<String>,
     /// The paper's IoU for this row, if the file gives one.
     pub paper_iou: Option<f32>,
+    /// Mean over seeds of the max-pool IoU (NMR protocol).
     pub mean_iou: f32,
+    /// The training seeds, and the mean IoU of each.
+    #[serde(default)]
+    pub seeds: Vec<u64>,
+    #[serde(default)]
+    pub seed_ious: Vec<f32>,
+    /// Per seed and evaluation object (`s<seed>/<category>/<id>`): its IoU.
+    #[serde(default)]
+    pub per_seed_object: BTreeMap<String, f32>,
+    /// Means over seeds of the centre-sampled IoU, the share of volume outside the visual hull,
+    /// and the mesh metrics (averaged over categories; absent without meshes).
+    #[serde(default)]
+    pub centre_iou: f32,
+    #[serde(default)]
+    pub outside_hull: f32,
+    #[serde(default)]
+    pub mesh_iou: Option<f32>,
+    #[serde(default)]
+    pub chamfer_l1: Option<f32>,
+    #[serde(default)]
+    pub normal_consistency: Option<f32>,
+    /// The first seed's per-category metrics.
     pub per_category: BTreeMap<String, CategoryMetrics>,
     pub visual_hull_iou: f32,
     pub mean_shape_iou: Option<f32>,
+    /// Summed over seeds.
     pub train_seconds: f64,
     pub eval_seconds: f64,
     pub steps: usize,
+    /// Means over seeds of the last logged interval's loss and its terms.
     pub final_loss: Option<f32>,
-    /// The training loss history: `(step, mean loss of the logged interval)`.
+    #[serde(default)]
+    pub final_silhouette_loss: Option<f32>,
+    #[serde(default)]
+    pub final_regularizer_loss: Option<f32>,
+    /// The first seed's training loss history: `(step, mean loss of the logged interval)`.
     pub loss_history: Vec<(usize, f32)>,
 }
 
+fn mean_f32(v: impl IntoIterator<Item = f32>) -> Option<f32> {
+    let v: Vec<f32> = v.into_iter().collect();
+    (!v.is_empty()).then(|| v.iter().sum::<f32>() / v.len() as f32)
+}
+
+/// The mean of a per-category mesh metric over the categories that have it.
+fn mesh_mean(m: &Metrics, f: impl Fn(&crate::evaluate::MeshMetrics) -> Option<f32>) -> Option<f32> {
+    mean_f32(
+        m.per_category
+            .values()
+            .filter_map(|c| c.mesh.as_ref().and_then(&f)),
+    )
+}
+
+/// One finished training run of an entry.
+#[derive(Clone, Debug)]
+pub struct SeedRun {
+    pub seed: u64,
+    pub metrics: Metrics,
+    pub history: Vec<(usize, f32)>,
+}
+
 impl AblationEntry {
-    /// The entry of `variant` with its metrics and training history.
-    pub fn new(variant: &Variant, m: &Metrics, history: Vec<(usize, f32)>) -> Self {
+    /// The entry of `variant` from its runs (one per seed, at least one).
+    pub fn new(variant: &Variant, runs: &[SeedRun]) -> Self {
+        let first = &runs[0].metrics;
+        let over = |f: &dyn Fn(&Metrics) -> Option<f32>| {
+            let v: Vec<f32> = runs.iter().filter_map(|r| f(&r.metrics)).collect();
+            (v.len() == runs.len()).then(|| mean_f32(v)).flatten()
+        };
+        let per_seed_object = runs
+            .iter()
+            .flat_map(|r| {
+                r.metrics.per_category.iter().flat_map(move |(c, m)| {
+                    m.per_object
+                        .iter()
+                        .map(move |(id, v)| (format!("s{}/{c}/{id}", r.seed), *v))
+                })
+            })
+            .collect();
         Self {
             variant: variant.name.clone(),
             dir: variant.slug.clone(),
             overrides: variant.overrides.clone(),
             paper_iou: variant.paper_iou,
-            mean_iou: m.mean_iou,
-            per_category: m.per_category.clone(),
-            visual_hull_iou: m.visual_hull_iou,
-            mean_shape_iou: m.mean_shape_iou,
-            train_seconds: m.train_seconds,
-            eval_seconds: m.eval_seconds,
-            steps: m.steps,
-            final_loss: m.final_loss,
-            loss_history: history,
+            mean_iou: over(&|m| Some(m.mean_iou)).unwrap_or(0.0),
+            seeds: runs.iter().map(|r| r.seed).collect(),
+            seed_ious: runs.iter().map(|r| r.metrics.mean_iou).collect(),
+            per_seed_object,
+            centre_iou: over(&|m| Some(m.centre_iou)).unwrap_or(0.0),
+            outside_hull: over(&|m| Some(m.outside_hull)).unwrap_or(0.0),
+            mesh_iou: over(&|m| mesh_mean(m, |x| Some(x.iou))),
+            chamfer_l1: over(&|m| mesh_mean(m, |x| x.chamfer_l1)),
+            normal_consistency: over(&|m| mesh_mean(m, |x| x.normal_consistency)),
+            per_category: first.per_category.clone(),
+            visual_hull_iou: first.visual_hull_iou,
+            mean_shape_iou: first.mean_shape_iou,
+            train_seconds: runs.iter().map(|r| r.metrics.train_seconds).sum(),
+            eval_seconds: runs.iter().map(|r| r.metrics.eval_seconds).sum(),
+            steps: first.steps,
+            final_loss: over(&|m| m.final_loss),
+            final_silhouette_loss: over(&|m| m.final_silhouette_loss),
+            final_regularizer_loss: over(&|m| m.final_regularizer_loss),
+            loss_history: runs[0].history.clone(),
         }
     }
 
-    /// Per evaluation object (`category/id`): its IoU.
+    /// Per seed and evaluation object (`s<seed>/<category>/<id>`): its IoU. Rows are paired on
+    /// these keys, so a pair's noise covers both the objects and the training seeds.
     pub fn per_object(&self) -> BTreeMap<String, f32> {
+        if !self.per_seed_object.is_empty() {
+            return self.per_seed_object.clone();
+        }
         self.per_category
             .iter()
             .flat_map(|(c, m)| {
@@ -138,42 +217,45 @@ pub fn run(args: &RunArgs) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&file.name));
-    let dirs: Vec<PathBuf> = file.entries.iter().map(|e| root.join(&e.slug)).collect();
+    let seeds = file.run_seeds();
+    if let Some(v) = &args.variant
+        && !file.entries.iter().any(|e| &e.name == v || &e.slug == v)
+    {
+        bail!(
+            "{}: no entry named '{v}' (entries: {})",
+            args.file.display(),
+            file.entries
+                .iter()
+                .map(|e| e.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    if let Some(s) = args.seed
+        && !seeds.contains(&s)
+    {
+        bail!(
+            "{}: --seed {s} is not one of the file's seeds {seeds:?}",
+            args.file.display()
+        );
+    }
+    // Every (entry, seed) run, with its experiment and directory.
+    let mut runs: Vec<Vec<(u64, Experiment, PathBuf)>> = Vec::new();
+    for e in &file.entries {
+        let mut per = Vec::new();
+        for &seed in &seeds {
+            let exp = with_seed(&e.experiment, seed)
+                .with_context(|| format!("{}: variant '{}'", args.file.display(), e.name))?;
+            per.push((seed, exp, file.run_dir(&root, e, seed)));
+        }
+        runs.push(per);
+    }
 
     // Check everything before writing anything.
-    let mut finished = Vec::new();
-    let mut in_progress = Vec::new();
-    for (e, dir) in file.entries.iter().zip(&dirs) {
-        let done = dir.join("metrics.json").is_file();
-        let ckpt = checkpoint::latest(&dir.join("checkpoints"))?;
-        if !args.resume && (done || ckpt.is_some()) {
-            bail!(
-                "{} already holds variant '{}' ({}); pass --resume to continue the ablation (finished variants are skipped) or --out DIR to start a new one",
-                root.display(),
-                e.name,
-                if done {
-                    "finished".to_string()
-                } else {
-                    format!("checkpoint at step {}", ckpt.as_ref().map_or(0, |c| c.step))
-                }
-            );
+    for (e, per) in file.entries.iter().zip(&runs) {
+        for (seed, exp, dir) in per {
+            check_run_dir(args, e, *seed, exp, dir, &root)?;
         }
-        let config = dir.join("config.toml");
-        if args.resume && (done || ckpt.is_some()) && config.is_file() {
-            let old = std::fs::read_to_string(&config)
-                .with_context(|| format!("cannot read {}", config.display()))?;
-            if old != e.experiment.to_toml()? {
-                bail!(
-                    "{}: variant '{}' was run with a different configuration ({}); restore the file, remove {} to rerun it, or pass --out DIR",
-                    args.file.display(),
-                    e.name,
-                    config.display(),
-                    dir.display()
-                );
-            }
-        }
-        finished.push(done);
-        in_progress.push(ckpt.is_some());
     }
     std::fs::create_dir_all(&root).with_context(|| format!("cannot create {}", root.display()))?;
     let source = std::fs::read(&args.file)
@@ -187,40 +269,67 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let samples = write_samples(&root.join("samples.png"), &file, cache.get(base)?)?;
 
     let mut status = vec![Status::Pending; file.entries.len()];
-    for (i, (e, dir)) in file.entries.iter().zip(&dirs).enumerate() {
-        status[i] = if finished[i] {
-            info!(
-                "variant {}/{} '{}': finished, skipping ({})",
-                i + 1,
-                file.entries.len(),
-                e.name,
-                dir.display()
-            );
-            Status::Finished(Box::new(read_finished(e, dir)?))
-        } else {
-            info!(
-                "variant {}/{} '{}' → {}",
-                i + 1,
-                file.entries.len(),
-                e.name,
-                dir.display()
-            );
-            let outcome = (|| {
-                let data = cache.get(&e.experiment)?;
-                prepare_dir(&e.experiment, dir)?;
-                run_one(&e.experiment, &args.file, data, dir, in_progress[i])
-            })();
+    let total = file.entries.len() * seeds.len();
+    let mut k = 0;
+    for (i, (e, per)) in file.entries.iter().zip(&runs).enumerate() {
+        let mut done = Vec::new();
+        let mut failure = None;
+        let chosen = args
+            .variant
+            .as_ref()
+            .is_none_or(|v| v == &e.name || v == &e.slug);
+        let mut skipped = false;
+        for (seed, exp, dir) in per {
+            k += 1;
+            let finished = dir.join("metrics.json").is_file();
+            let wanted = chosen && args.seed.is_none_or(|s| s == *seed);
+            if !finished && !wanted {
+                skipped = true;
+                continue;
+            }
+            let outcome = if finished {
+                info!(
+                    "run {k}/{total} '{}' seed {seed}: finished, skipping ({})",
+                    e.name,
+                    dir.display()
+                );
+                read_finished(*seed, dir)
+            } else {
+                info!(
+                    "run {k}/{total} '{}' seed {seed} → {}",
+                    e.name,
+                    dir.display()
+                );
+                let resume = checkpoint::latest(&dir.join("checkpoints"))?.is_some();
+                (|| {
+                    let data = cache.get(exp)?;
+                    prepare_dir(exp, dir)?;
+                    let o = run_one(exp, &args.file, data, dir, resume)?;
+                    info!(
+                        "'{}' seed {seed}: mean IoU {:.3}",
+                        e.name, o.metrics.mean_iou
+                    );
+                    Ok(SeedRun {
+                        seed: *seed,
+                        metrics: o.metrics,
+                        history: o.history,
+                    })
+                })()
+            };
             match outcome {
-                Ok(o) => {
-                    info!("variant '{}': mean IoU {:.3}", e.name, o.metrics.mean_iou);
-                    Status::Finished(Box::new(AblationEntry::new(e, &o.metrics, o.history)))
-                }
+                Ok(r) => done.push(r),
                 Err(err) => {
-                    let msg = format!("{err:#}");
+                    let msg = format!("seed {seed}: {err:#}");
                     error!("variant '{}' failed: {msg}", e.name);
-                    Status::Failed(msg)
+                    failure = Some(msg);
+                    break;
                 }
             }
+        }
+        status[i] = match failure {
+            Some(msg) => Status::Failed(msg),
+            None if skipped => Status::Pending,
+            None => Status::Finished(Box::new(AblationEntry::new(e, &done))),
         };
         write_outputs(&root, &file, &status, &samples)?;
     }
@@ -265,17 +374,72 @@ impl DataCache {
     }
 }
 
-/// The entry of a variant that finished in an earlier invocation.
-fn read_finished(e: &Variant, dir: &Path) -> Result<AblationEntry> {
+/// `exp` with its training seed replaced (through its resolved TOML, so that the copy is
+/// validated like a file).
+fn with_seed(exp: &Experiment, seed: u64) -> Result<Experiment> {
+    let mut table: toml::Table = toml::from_str(&exp.to_toml()?)?;
+    table.insert("seed".into(), toml::Value::Integer(seed as i64));
+    let copy: Experiment = toml::from_str(&toml::to_string(&table)?)?;
+    copy.validate().map_err(|e| anyhow!(e))?;
+    Ok(copy)
+}
+
+/// Refuses to run over a run directory that holds results, unless resuming with the same
+/// configuration.
+fn check_run_dir(
+    args: &RunArgs,
+    e: &Variant,
+    seed: u64,
+    exp: &Experiment,
+    dir: &Path,
+    root: &Path,
+) -> Result<()> {
+    let done = dir.join("metrics.json").is_file();
+    let ckpt = checkpoint::latest(&dir.join("checkpoints"))?;
+    if !args.resume && (done || ckpt.is_some()) {
+        bail!(
+            "{} already holds variant '{}' seed {seed} ({}); pass --resume to continue the ablation (finished runs are skipped) or --out DIR to start a new one",
+            root.display(),
+            e.name,
+            if done {
+                "finished".to_string()
+            } else {
+                format!("checkpoint at step {}", ckpt.as_ref().map_or(0, |c| c.step))
+            }
+        );
+    }
+    let config = dir.join("config.toml");
+    if args.resume && (done || ckpt.is_some()) && config.is_file() {
+        let old = std::fs::read_to_string(&config)
+            .with_context(|| format!("cannot read {}", config.display()))?;
+        if old != exp.to_toml()? {
+            bail!(
+                "{}: variant '{}' was run with a different configuration ({}); restore the file, remove {} to rerun it, or pass --out DIR",
+                args.file.display(),
+                e.name,
+                config.display(),
+                dir.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A run that finished in an earlier invocation.
+fn read_finished(seed: u64, dir: &Path) -> Result<SeedRun> {
     let path = dir.join("metrics.json");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("cannot read {}", path.display()))?;
-    let m: Metrics =
+    let metrics: Metrics =
         serde_json::from_str(&text).map_err(|err| anyhow!("{}: {err}", path.display()))?;
     let history = checkpoint::latest(&dir.join("checkpoints"))?
         .map(|s| s.history)
         .unwrap_or_default();
-    Ok(AblationEntry::new(e, &m, history))
+    Ok(SeedRun {
+        seed,
+        metrics,
+        history,
+    })
 }
 
 /// The finished entries, in file order (the base first).
@@ -659,12 +823,19 @@ pub fn render_report(file: &AblationFile, status: &[Status], samples: &SamplesIn
     let _ = writeln!(
         s,
         "Each row is the base with the overrides shown, trained and evaluated into its own run \
-         directory; all share the data (`{}`, {}, evaluated on the {} split), the seed and the \
-         evaluation (3D IoU at {}³, {} input view(s) per object, NMR protocol).",
+         directory; all share the data (`{}`, {}, evaluated on the {} split), the training \
+         seed(s) {} and the evaluation (3D IoU at {}³ in the NMR max-pool protocol, {}³ points per \
+         voxel, {} input view(s) per object).",
         base.data.dir.display(),
         cats.join(", "),
         base.data.eval_split.name(),
+        file.run_seeds()
+            .iter()
+            .map(|s| s.to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
         base.eval.resolution,
+        base.eval.subsamples,
         base.eval.views
     );
     let paper_src = file
@@ -708,9 +879,12 @@ pub fn render_report(file: &AblationFile, status: &[Status], samples: &SamplesIn
 
     let _ = writeln!(
         s,
-        "| # | variant | overrides | steps | train (s) | our mean IoU ± SE | our rank | paper IoU | paper rank | pairs vs the paper |"
+        "| # | variant | overrides | steps | train (s) | our mean IoU ± SE | per seed | centre IoU | outside hull | mesh IoU | Chamfer-L1 ×10 | normal consistency | final L_sil / L_reg | our rank | paper IoU | paper rank | pairs vs the paper |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
     for (i, (v, st)) in file.entries.iter().zip(status).enumerate() {
         let name = if i == 0 {
             format!("{} (base)", v.name)
@@ -747,26 +921,47 @@ pub fn render_report(file: &AblationFile, status: &[Status], samples: &SamplesIn
                     }
                     None => ("–".into(), "–".into(), "–".into()),
                 };
+                let o = |v: Option<f32>, scale: f32| {
+                    v.map_or_else(|| "–".to_string(), |v| format!("{:.3}", v * scale))
+                };
+                let per_seed = e
+                    .seed_ious
+                    .iter()
+                    .map(|v| format!("{v:.3}"))
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                let losses = format!(
+                    "{} / {}",
+                    e.final_silhouette_loss
+                        .map_or_else(|| "–".into(), |v| format!("{v:.4}")),
+                    e.final_regularizer_loss
+                        .map_or_else(|| "–".into(), |v| format!("{v:.5}"))
+                );
                 let _ = writeln!(
                     s,
-                    "| {} | {name} | {overrides} | {} | {:.0} | **{:.3}**{se} | {our_rank} | {paper} | {paper_rank} | {pairs} |",
+                    "| {} | {name} | {overrides} | {} | {:.0} | **{:.3}**{se} | {per_seed} | {:.3} | {:.1} % | {} | {} | {} | {losses} | {our_rank} | {paper} | {paper_rank} | {pairs} |",
                     i + 1,
                     e.steps,
                     e.train_seconds,
-                    e.mean_iou
+                    e.mean_iou,
+                    e.centre_iou,
+                    100.0 * e.outside_hull,
+                    o(e.mesh_iou, 1.0),
+                    o(e.chamfer_l1, 10.0),
+                    o(e.normal_consistency, 1.0),
                 );
             }
             Status::Pending => {
                 let _ = writeln!(
                     s,
-                    "| {} | {name} | {overrides} | | | not run yet | | {paper} | | |",
+                    "| {} | {name} | {overrides} | | | not run yet | | | | | | | | | {paper} | | |",
                     i + 1
                 );
             }
             Status::Failed(msg) => {
                 let _ = writeln!(
                     s,
-                    "| {} | {name} | {overrides} | | | failed: {} | | {paper} | | |",
+                    "| {} | {name} | {overrides} | | | failed: {} | | | | | | | | | {paper} | | |",
                     i + 1,
                     msg.replace('|', "\\|").replace('\n', " ")
                 );
@@ -777,7 +972,10 @@ pub fn render_report(file: &AblationFile, status: &[Status], samples: &SamplesIn
         let _ = writeln!(
             s,
             "\nReferences on the same evaluation objects: visual hull (24 views) {:.3}, category mean \
-             shape {}. SE: standard error of the mean over evaluation objects.",
+             shape {}. SE: standard error of the mean over seeds × evaluation objects. Train (s) \
+             is summed over seeds; centre IoU reads φ at voxel centres only (secondary); outside \
+             hull is the share of predicted voxels outside the 24-view visual hull; mesh metrics \
+             are means over the meshed views and seeds.",
             e.visual_hull_iou,
             e.mean_shape_iou.map_or("–".into(), |v| format!("{v:.3}"))
         );
@@ -789,12 +987,12 @@ pub fn render_report(file: &AblationFile, status: &[Status], samples: &SamplesIn
         "Rule: every pair of finished rows with the paper's numbers is compared. The paper orders \
          a pair by its two IoUs (equal numbers are a tie and not counted). Our order is the sign of \
          the difference Δ of our mean IoUs; it is *resolved* only when |Δ| exceeds twice the \
-         standard error of the paired per-object differences (the same evaluation objects under \
-         both rows) and is at least {MIN_RESOLVED_DIFF}. A resolved pair agrees or disagrees with \
-         the paper; an unresolved one is reported as within noise. The noise bar is rough (not a \
-         significance test) and covers only the choice of evaluation objects, not training noise: \
-         one seed per row, so close rows could swap under another seed. With few evaluation \
-         objects and CPU-scale training, the comparison is only as strong as the table says.\n"
+         standard error of the paired differences (the same evaluation object under the same \
+         training seed in both rows) and is at least {MIN_RESOLVED_DIFF}. A resolved pair agrees \
+         or disagrees with the paper; an unresolved one is reported as within noise, and its 2·SE \
+         is the smallest difference this run could have resolved. The noise bar is rough (not a \
+         significance test); it covers the choice of evaluation objects and, with several seeds, \
+         training noise (with one seed, close rows could swap under another).\n"
     );
     let _ = writeln!(s, "{}\n", summary(&rows, &cmp));
     if !cmp.pairs.is_empty() {
@@ -992,6 +1190,8 @@ mod tests {
         let iou = ious.iter().sum::<f32>() / ious.len() as f32;
         let cm = CategoryMetrics {
             iou,
+            centre_iou: iou,
+            outside_hull: 0.0,
             visual_hull_iou: 0.7,
             mean_shape_iou: Some(0.3),
             mean_gt_shape_iou: None,
@@ -1004,6 +1204,8 @@ mod tests {
         Metrics {
             experiment: "t".into(),
             mean_iou: iou,
+            centre_iou: iou,
+            outside_hull: 0.0,
             visual_hull_iou: 0.7,
             mean_shape_iou: Some(0.3),
             mean_gt_shape_iou: None,
@@ -1011,13 +1213,57 @@ mod tests {
             per_category: [("chair".to_string(), cm)].into(),
             split: "test".into(),
             resolution: 32,
+            subsamples: 4,
             steps: 10,
             train_seconds: 5.0,
             eval_seconds: 1.0,
             final_loss: Some(0.1),
+            final_silhouette_loss: Some(0.09),
+            final_regularizer_loss: Some(0.01),
             backend: "flex".into(),
             device: "cpu".into(),
         }
+    }
+
+    fn run(seed: u64, ious: &[f32], hist: &[(usize, f32)]) -> SeedRun {
+        SeedRun {
+            seed,
+            metrics: metrics(ious),
+            history: hist.to_vec(),
+        }
+    }
+
+    /// Several seeds: the entry is their mean, its per-object IoUs are keyed by seed, and two
+    /// entries pair the same (seed, object).
+    #[test]
+    fn seeds_average_and_pair_by_seed_and_object() {
+        let text = "name = \"abl\"\nseeds = [3, 5]\n[data]\ndir = \"d\"\ncategories = [\"chair\"]\n\
+                    [probe]\nanchors = 8\nrays_per_view = 4\nray_sampler = { type = \"uniform\" }\n\
+                    anchor_sampler = { type = \"uniform\" }\n[train]\nsteps = 10\n\
+                    [[variants]]\nname = \"naive\"\npaper_iou = 0.524\nprobe = { assignment = \"naive\" }\n";
+        let file = AblationFile::parse(text, Path::new("abl.toml")).unwrap();
+        assert_eq!(file.run_seeds(), [3, 5]);
+        let root = Path::new("r");
+        assert_eq!(
+            file.run_dir(root, &file.entries[1], 5),
+            Path::new("r/naive/seed-5")
+        );
+        let e = AblationEntry::new(
+            &file.entries[0],
+            &[run(3, &[0.5, 0.7], &[]), run(5, &[0.3, 0.5], &[])],
+        );
+        assert!((e.mean_iou - 0.5).abs() < 1e-6);
+        assert!((e.seed_ious[0] - 0.6).abs() < 1e-6 && (e.seed_ious[1] - 0.4).abs() < 1e-6);
+        let keys: Vec<String> = e.per_object().into_keys().collect();
+        assert_eq!(
+            keys,
+            ["s3/chair/o0", "s3/chair/o1", "s5/chair/o0", "s5/chair/o1"]
+        );
+        assert_eq!(e.train_seconds, 10.0, "summed over seeds");
+        assert!(with_seed(&file.entries[1].experiment, 9).unwrap().seed == 9);
+        let bad = "name = \"a\"\nseeds = [1, 1]\n[data]\ndir = \"d\"\ncategories = [\"chair\"]\n[probe]\nanchors = 8\nrays_per_view = 4\nray_sampler = { type = \"uniform\" }\nanchor_sampler = { type = \"uniform\" }\n[train]\nsteps = 10\n[[variants]]\nname = \"x\"\nseed = 2\n";
+        let err = AblationFile::parse(bad, Path::new("abl.toml")).unwrap_err();
+        assert!(format!("{err}").contains("seeds"), "{err}");
     }
 
     fn file_with(variants: &str) -> AblationFile {
@@ -1040,13 +1286,11 @@ mod tests {
         let status = vec![
             Status::Finished(Box::new(AblationEntry::new(
                 &file.entries[0],
-                &metrics(&[0.60, 0.62, 0.61]),
-                hist.clone(),
+                &[run(0, &[0.60, 0.62, 0.61], &hist)],
             ))),
             Status::Finished(Box::new(AblationEntry::new(
                 &file.entries[1],
-                &metrics(&[0.40, 0.42, 0.41]),
-                hist.clone(),
+                &[run(0, &[0.40, 0.42, 0.41], &hist)],
             ))),
             Status::Failed("the loss became NaN | at step 3".into()),
             Status::Pending,
@@ -1085,7 +1329,7 @@ mod tests {
 
         let report = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
         for needle in [
-            "| 1 | full (base) | – | 10 | 5 | **0.610** ± 0.006 | 1 | 0.548 | 1 | 1 agree, 0 disagree, 0 within noise |",
+            "| 1 | full (base) | – | 10 | 5 | **0.610** ± 0.006 | 0.610 | 0.610 | 0.0 % | – | – | – | 0.0900 / 0.01000 | 1 | 0.548 | 1 | 1 agree, 0 disagree, 0 within noise |",
             "| 2 | normal | `probe = { ray_sampler = { type = \"normal\" } }` |",
             "| 3 | naive |",
             "failed: the loss became NaN \\| at step 3",

@@ -57,6 +57,7 @@ pub fn run(args: Args) -> Result<()> {
         steps: rd.state.step,
         seconds,
         history: rd.state.history.clone(),
+        terms: rd.state.terms.clone(),
     };
     info!(
         "evaluating {} at step {} → {}",

@@ -13,7 +13,7 @@ use fieldprobe_core::eval::surface::{
     SurfaceMetrics, SurfaceSample, outer_surface, sample_surface, surface_metrics,
 };
 use fieldprobe_core::eval::{
-    encode_views, extract_field_mesh, mean_shape, object_hull, predict_grids,
+    encode_views, extract_field_mesh, mean_shape, object_hull, predict_all_views,
     render_field_silhouette,
 };
 use fieldprobe_core::field::FieldModel;
@@ -25,12 +25,22 @@ use serde::{Deserialize, Serialize};
 use crate::data::CategoryData;
 use crate::experiment::EvalConfig;
 
-/// Metrics of one category.
+/// Metrics of one category. Every IoU is at 32³ in the NMR protocol: a field's voxel is
+/// occupied when φ reaches ½ anywhere in it (max over `eval.subsamples³` points; see
+/// `fieldprobe_core::eval::occupancy`), the references are converted the same way.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CategoryMetrics {
-    /// Mean 3D IoU of the model over objects × input views.
+    /// Mean max-pool IoU of the model over objects × input views.
     pub iou: f32,
-    /// Mean IoU of each object's 24-view visual hull (centre test).
+    /// The same predictions read only at the voxel centres (not dilated like the ground truth:
+    /// a secondary number that pays over-sized fields).
+    #[serde(default)]
+    pub centre_iou: f32,
+    /// Mean share of each prediction's voxels that lie outside the object's 24-view visual hull
+    /// (both max-pooled): volume grown where the silhouettes say nothing is.
+    #[serde(default)]
+    pub outside_hull: f32,
+    /// Mean IoU of each object's 24-view visual hull.
     pub visual_hull_iou: f32,
     /// Mean IoU of the category mean shape (mean of training visual hulls, ≥ ½); absent for a
     /// per-object fit.
@@ -42,7 +52,7 @@ pub struct CategoryMetrics {
     pub objects: usize,
     /// Input views per object.
     pub views: usize,
-    /// Per object: id and mean IoU.
+    /// Per object: id and mean max-pool IoU.
     pub per_object: Vec<(String, f32)>,
     /// Metrics of extracted meshes (absent when `eval.mesh_views = 0`).
     #[serde(default)]
@@ -74,7 +84,7 @@ pub struct MeshMetrics {
     /// NMR-protocol IoU of the extracted meshes: NMR's surface voxelization + fill of each mesh
     /// against the ground-truth voxels.
     pub iou: f32,
-    /// The 32³ grid IoU of the same predictions, for comparison.
+    /// The max-pool IoU of the same predictions, for comparison.
     pub grid_iou: f32,
     /// Chamfer-L1 (not ×10), F-score and normal consistency against the ground-truth meshes;
     /// absent when the dataset has no meshes (`DATA/meshes/<synset>/<id>.obj`).
@@ -152,21 +162,18 @@ pub fn evaluate(
     let bar = crate::progress::Progress::new("eval", total, 0);
     let mut out = BTreeMap::new();
     for cat in data {
-        let res = cfg.resolution;
+        let (res, sub) = (cfg.resolution, cfg.subsamples);
         let (mean_hull, mean_gt) = if per_object_fit {
             (None, None)
         } else {
-            let hulls: Vec<_> = cat.train.iter().map(|o| object_hull(o, res)).collect();
+            let hulls: Vec<_> = cat
+                .train
+                .iter()
+                .map(|o| object_hull(o, res, sub).maxpool)
+                .collect();
             (mean_shape(&hulls), mean_shape(&cat.train_gt))
         };
-        let (mut ious, mut hull_ious, mut ms, mut mg, mut sils, mut per_object) = (
-            Vec::new(),
-            Vec::new(),
-            Vec::new(),
-            Vec::new(),
-            Vec::new(),
-            Vec::new(),
-        );
+        let mut acc = Accumulators::default();
         let mut mesh_scores: Vec<MeshScore> = Vec::new();
         for (o, ((obj, gt), id)) in cat
             .eval
@@ -176,16 +183,20 @@ pub fn evaluate(
             .enumerate()
         {
             let latents = encode_views(model, obj, device);
-            let preds = predict_grids(model, latents.as_ref(), &views, res, device);
-            let obj_iou = mean(&preds.iter().map(|p| p.iou(gt)).collect::<Vec<_>>());
-            ious.push(obj_iou);
-            per_object.push((id.clone(), obj_iou));
-            hull_ious.push(object_hull(obj, res).iou(gt));
+            let preds = predict_all_views(model, latents.as_ref(), &views, res, sub, device);
+            let hull = object_hull(obj, res, sub).maxpool;
+            let obj_iou = mean(&preds.iter().map(|p| p.maxpool.iou(gt)).collect::<Vec<_>>());
+            acc.iou.push(obj_iou);
+            acc.centre.extend(preds.iter().map(|p| p.centre.iou(gt)));
+            acc.outside
+                .extend(preds.iter().map(|p| 1.0 - p.maxpool.fraction_inside(&hull)));
+            acc.per_object.push((id.clone(), obj_iou));
+            acc.hull.push(hull.iou(gt));
             if let Some(m) = &mean_hull {
-                ms.push(m.iou(gt));
+                acc.mean_shape.push(m.iou(gt));
             }
             if let Some(m) = &mean_gt {
-                mg.push(m.iou(gt));
+                acc.mean_gt.push(m.iou(gt));
             }
             if cfg.mesh_views > 0 {
                 let gt_mesh =
@@ -214,7 +225,7 @@ pub fn evaluate(
                         score_mesh(&mesh, gt, gt_surf.as_ref(), cfg, 1000 + o as u64);
                     mesh_scores.push(MeshScore {
                         iou,
-                        grid_iou: preds[i].iou(gt),
+                        grid_iou: preds[i].maxpool.iou(gt),
                         empty: mesh.faces.is_empty(),
                         surface,
                     });
@@ -239,27 +250,42 @@ pub fn evaluate(
                         .iou(gt_sil)
                     })
                     .collect();
-                sils.push(mean(&s));
+                acc.silhouette.push(mean(&s));
             }
             bar.inc();
         }
         out.insert(
             cat.category.name().to_string(),
             CategoryMetrics {
-                iou: mean(&ious),
-                visual_hull_iou: mean(&hull_ious),
-                mean_shape_iou: (!ms.is_empty()).then(|| mean(&ms)),
-                mean_gt_shape_iou: (!mg.is_empty()).then(|| mean(&mg)),
-                silhouette_iou: (!sils.is_empty()).then(|| mean(&sils)),
+                iou: mean(&acc.iou),
+                centre_iou: mean(&acc.centre),
+                outside_hull: mean(&acc.outside),
+                visual_hull_iou: mean(&acc.hull),
+                mean_shape_iou: (!acc.mean_shape.is_empty()).then(|| mean(&acc.mean_shape)),
+                mean_gt_shape_iou: (!acc.mean_gt.is_empty()).then(|| mean(&acc.mean_gt)),
+                silhouette_iou: (!acc.silhouette.is_empty()).then(|| mean(&acc.silhouette)),
                 objects: cat.eval.len(),
                 views: if per_object_fit { 1 } else { views.len() },
-                per_object,
+                per_object: acc.per_object,
                 mesh: summarize(&mesh_scores, cfg, cat.eval.len()),
             },
         );
     }
     bar.finish();
     Ok(out)
+}
+
+/// A category's per-object (`iou`, `hull`, …) and per-prediction (`centre`, `outside`) scores.
+#[derive(Default)]
+struct Accumulators {
+    iou: Vec<f32>,
+    centre: Vec<f32>,
+    outside: Vec<f32>,
+    hull: Vec<f32>,
+    mean_shape: Vec<f32>,
+    mean_gt: Vec<f32>,
+    silhouette: Vec<f32>,
+    per_object: Vec<(String, f32)>,
 }
 
 /// The category's mesh metrics from its per-mesh scores (surface metrics only when every object

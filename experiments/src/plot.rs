@@ -367,6 +367,21 @@ pub fn loss_chart(histories: &[(usize, &[(usize, f32)])]) -> RgbImage {
     line_chart(&series, 800, 480, true).0
 }
 
+/// One run's loss and its terms on a log-y chart (800 × 480): `1` the total, `2` the silhouette
+/// term, `3` the regularizers (drawn only when they contributed).
+pub fn loss_terms_chart(history: &[(usize, f32)], terms: &[(usize, f32, f32)]) -> RgbImage {
+    let sil: Vec<(usize, f32)> = terms.iter().map(|&(s, l, _)| (s, l)).collect();
+    let reg: Vec<(usize, f32)> = terms.iter().map(|&(s, _, r)| (s, r)).collect();
+    let mut all = vec![(0, history)];
+    if !sil.is_empty() {
+        all.push((1, sil.as_slice()));
+    }
+    if reg.iter().any(|&(_, r)| r > 0.0) {
+        all.push((2, reg.as_slice()));
+    }
+    loss_chart(&all)
+}
+
 // ---------------------------------------------------------------------------------------------
 // Silhouettes with dots
 // ---------------------------------------------------------------------------------------------

@@ -23,7 +23,7 @@ use fieldprobe_core::data::TriMesh;
 use fieldprobe_core::data::dataset::{kato_planes, write_atomic};
 use fieldprobe_core::data::voxelize::voxelize_nmr;
 use fieldprobe_core::eval::surface::SurfaceMetrics;
-use fieldprobe_core::eval::{extract_field_mesh, predict_grid};
+use fieldprobe_core::eval::{extract_field_mesh, predict_voxels};
 use fieldprobe_core::extract::write_mesh;
 use image::imageops::FilterType;
 use image::{GrayImage, Luma, Rgb, RgbImage};
@@ -249,7 +249,9 @@ fn compare(
     let (mesh_iou, surface) = score_mesh(mesh, &gt_voxels, Some(&gt_surface), cfg, 1);
     Ok(ReconstructMetrics {
         mesh_iou,
-        grid_iou: predict_grid(model, latent, res, device).iou(&gt_voxels),
+        grid_iou: predict_voxels(model, latent, res, cfg.subsamples, device)
+            .maxpool
+            .iou(&gt_voxels),
         surface: surface.expect("a reference surface was given"),
         fscore_threshold: cfg.fscore_threshold,
         surface_points: cfg.surface_points,

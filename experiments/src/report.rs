@@ -29,15 +29,17 @@ pub fn render(exp: &Experiment, m: &Metrics, gallery: &[GalleryRow], curves: boo
     );
     let _ = writeln!(
         s,
-        "| category | objects | model IoU | visual hull (24 views) | category mean shape | mean GT shape (3D prior) | silhouette IoU |"
+        "| category | objects | model IoU | centre IoU | outside hull | visual hull (24 views) | category mean shape | mean GT shape (3D prior) | silhouette IoU |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
     for (name, c) in &m.per_category {
         let _ = writeln!(
             s,
-            "| {name} | {} | {:.3} | {:.3} | {} | {} | {} |",
+            "| {name} | {} | {:.3} | {:.3} | {:.1} % | {:.3} | {} | {} | {} |",
             c.objects,
             c.iou,
+            c.centre_iou,
+            100.0 * c.outside_hull,
             c.visual_hull_iou,
             opt(c.mean_shape_iou),
             opt(c.mean_gt_shape_iou),
@@ -46,8 +48,10 @@ pub fn render(exp: &Experiment, m: &Metrics, gallery: &[GalleryRow], curves: boo
     }
     let _ = writeln!(
         s,
-        "| **mean** | | **{:.3}** | {:.3} | {} | {} | {} |\n",
+        "| **mean** | | **{:.3}** | {:.3} | {:.1} % | {:.3} | {} | {} | {} |\n",
         m.mean_iou,
+        m.centre_iou,
+        100.0 * m.outside_hull,
         m.visual_hull_iou,
         opt(m.mean_shape_iou),
         opt(m.mean_gt_shape_iou),
@@ -55,9 +59,15 @@ pub fn render(exp: &Experiment, m: &Metrics, gallery: &[GalleryRow], curves: boo
     );
     let _ = writeln!(
         s,
-        "The visual hull is what the 24 silhouettes alone determine; the category mean shape is the \
-         mean of the training objects' visual hulls (the prior silhouettes give), so a model that beats \
-         it reads the image. The mean GT shape needs 3D data and is shown for context only."
+        "Model IoU is the max-pool protocol: a voxel is occupied when φ reaches ½ anywhere in it \
+         ({sub}³ points per voxel), the way NMR's ground truth marks every voxel the surface touches; \
+         the references are converted the same way. Centre IoU reads φ at voxel centres only (not \
+         dilated like the ground truth; secondary). Outside hull is the share of predicted voxels \
+         outside the object's 24-view visual hull. The visual hull is what the 24 silhouettes alone \
+         determine; the category mean shape is the mean of the training objects' visual hulls (the \
+         prior silhouettes give), so a model that beats it reads the image. The mean GT shape needs \
+         3D data and is shown for context only.",
+        sub = m.subsamples
     );
     mesh_table(&mut s, exp, m);
     if !gallery.is_empty() {
@@ -91,14 +101,20 @@ pub fn render(exp: &Experiment, m: &Metrics, gallery: &[GalleryRow], curves: boo
         let _ = writeln!(s, "\n## Training curve\n");
         let _ = writeln!(
             s,
-            "Mean silhouette loss per logged interval (log scale) against the step.\n"
+            "Mean loss per logged interval (log scale) against the step: 1 the total, 2 the \
+             silhouette term, 3 the regularizers (when there are any).\n"
         );
         let _ = writeln!(s, "![training curve](training_curves.png)");
     }
     if let Some(l) = m.final_loss {
         let _ = writeln!(
             s,
-            "\nFinal training loss (mean of the last logged interval): {l:.5}."
+            "\nFinal training loss (mean of the last logged interval): {l:.5} (silhouette {}, \
+             regularizers {}).",
+            m.final_silhouette_loss
+                .map_or_else(|| "–".into(), |v| format!("{v:.5}")),
+            m.final_regularizer_loss
+                .map_or_else(|| "–".into(), |v| format!("{v:.6}"))
         );
     }
     s
@@ -121,7 +137,7 @@ fn mesh_table(s: &mut String, exp: &Experiment, m: &Metrics) {
         "Meshes extracted at φ = {th} (MISE from {r}³ with {k} refinement(s), marching cubes) from \
          {v} of the {views} input views per object on the **{split}** split. Mesh IoU voxelizes \
          each mesh as NMR does (surface marking + fill, {res}³) against the ground-truth voxels; \
-         the grid IoU of the same predictions is beside it. Chamfer-L1 is shown ×10 as in \
+         the max-pool IoU of the same predictions is beside it. Chamfer-L1 is shown ×10 as in \
          Occupancy Networks and DVR, with F-score at τ = {tau} and normal consistency, from \
          {pts} points per surface against the dataset's meshes (their outer surface).\n",
         th = x.threshold,
@@ -136,7 +152,7 @@ fn mesh_table(s: &mut String, exp: &Experiment, m: &Metrics) {
     );
     let _ = writeln!(
         s,
-        "| category | meshes | empty | mesh IoU | grid IoU (same views) | Chamfer-L1 ×10 | F-score | normal consistency |"
+        "| category | meshes | empty | mesh IoU | max-pool IoU (same views) | Chamfer-L1 ×10 | F-score | normal consistency |"
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
     for (name, _, mm) in &rows {

@@ -32,14 +32,30 @@ pub struct RunArgs {
     /// Continue from the run directory's latest checkpoint.
     #[arg(long)]
     pub resume: bool,
+    /// Ablation files: run only this entry (its name or directory name); finished entries are
+    /// still read into the report. Several processes can share one ablation directory this
+    /// way, one entry or seed each; a last `--resume` without filters writes the full report.
+    #[arg(long)]
+    pub variant: Option<String>,
+    /// Train with this seed instead of the file's (ablation files: run only this one of
+    /// `seeds`).
+    #[arg(long)]
+    pub seed: Option<u64>,
 }
 
 /// What `metrics.json` holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Metrics {
     pub experiment: String,
-    /// Mean over categories of the model's IoU.
+    /// Mean over categories of the model's max-pool IoU (the NMR protocol; see
+    /// `evaluate::CategoryMetrics`).
     pub mean_iou: f32,
+    /// The same predictions read at the voxel centres only (secondary).
+    #[serde(default)]
+    pub centre_iou: f32,
+    /// Mean share of the predicted voxels outside the 24-view visual hull.
+    #[serde(default)]
+    pub outside_hull: f32,
     pub visual_hull_iou: f32,
     pub mean_shape_iou: Option<f32>,
     pub mean_gt_shape_iou: Option<f32>,
@@ -48,10 +64,18 @@ pub struct Metrics {
     pub per_category: BTreeMap<String, CategoryMetrics>,
     pub split: String,
     pub resolution: usize,
+    /// Sub-grid points per voxel and axis of the max-pool protocol.
+    #[serde(default)]
+    pub subsamples: usize,
     pub steps: usize,
     pub train_seconds: f64,
     pub eval_seconds: f64,
     pub final_loss: Option<f32>,
+    /// The silhouette and regularizer terms of the last logged interval (means).
+    #[serde(default)]
+    pub final_silhouette_loss: Option<f32>,
+    #[serde(default)]
+    pub final_regularizer_loss: Option<f32>,
     pub backend: String,
     pub device: String,
 }
@@ -73,7 +97,16 @@ pub fn run(args: RunArgs) -> Result<()> {
     if crate::variants::has_variants(&args.file) {
         return crate::ablation::run(&args);
     }
-    let exp = load_experiment(&args.file)?;
+    if args.variant.is_some() {
+        bail!(
+            "{}: --variant applies to ablation files (with [[variants]]) only",
+            args.file.display()
+        );
+    }
+    let mut exp = load_experiment(&args.file)?;
+    if let Some(seed) = args.seed {
+        exp.seed = seed;
+    }
     let dir = args
         .out
         .clone()
@@ -146,6 +179,7 @@ pub fn run_one(
         steps: trainer.step,
         seconds: train_seconds,
         history: trainer.history.clone(),
+        terms: trainer.terms.clone(),
     };
     let model = trainer.model.valid();
     evaluate_run(exp, &model, data, dir, &selected, &training)
@@ -158,6 +192,8 @@ pub struct Training {
     pub seconds: f64,
     /// `(step, mean loss of the interval)`.
     pub history: Vec<(usize, f32)>,
+    /// `(step, mean silhouette term, mean regularizer term)` of the same intervals.
+    pub terms: Vec<(usize, f32, f32)>,
 }
 
 /// `input.json`: what the model reads, so that `reconstruct` can bring any image to it.
@@ -212,12 +248,14 @@ pub fn evaluate_run(
     let eval_seconds = t0.elapsed().as_secs_f64();
     let gallery = crate::gallery::write(dir, model, data, &exp.eval, &selected.device)?;
     if !training.history.is_empty() {
-        let curve = plot::loss_chart(&[(0, training.history.as_slice())]);
+        let curve = plot::loss_terms_chart(&training.history, &training.terms);
         plot::write_png(&dir.join("training_curves.png"), &curve)?;
     }
     let metrics = Metrics {
         experiment: exp.name.clone(),
         mean_iou: mean_of(&per_category, |c| Some(c.iou)).unwrap_or(0.0),
+        centre_iou: mean_of(&per_category, |c| Some(c.centre_iou)).unwrap_or(0.0),
+        outside_hull: mean_of(&per_category, |c| Some(c.outside_hull)).unwrap_or(0.0),
         visual_hull_iou: mean_of(&per_category, |c| Some(c.visual_hull_iou)).unwrap_or(0.0),
         mean_shape_iou: mean_of(&per_category, |c| c.mean_shape_iou),
         mean_gt_shape_iou: mean_of(&per_category, |c| c.mean_gt_shape_iou),
@@ -225,10 +263,13 @@ pub fn evaluate_run(
         per_category,
         split: exp.data.eval_split.name().into(),
         resolution: exp.eval.resolution,
+        subsamples: exp.eval.subsamples,
         steps: training.steps,
         train_seconds: training.seconds,
         eval_seconds,
         final_loss: training.history.last().map(|h| h.1),
+        final_silhouette_loss: training.terms.last().map(|t| t.1),
+        final_regularizer_loss: training.terms.last().map(|t| t.2),
         backend: selected.backend.into(),
         device: selected.description.clone(),
     };
@@ -270,7 +311,8 @@ fn train(
     let log_every = (steps / 100).max(1);
     let bar = Progress::new("train", steps, trainer.step);
     let t0 = Instant::now();
-    let mut acc = (0.0f32, 0usize);
+    // Sums over the logged interval: total, silhouette, regularizers, steps.
+    let mut acc = (0.0f32, 0.0f32, 0.0f32, 0usize);
     while trainer.step < steps {
         let prepared = prepare_step(
             &objects,
@@ -287,10 +329,17 @@ fn train(
                 bar.abandon();
                 anyhow::anyhow!("{e} (checkpoints: {})", ckpt.display())
             })?;
-        acc = (acc.0 + stats.loss, acc.1 + 1);
+        acc = (
+            acc.0 + stats.loss,
+            acc.1 + stats.silhouette_loss,
+            acc.2 + stats.regularizer_loss,
+            acc.3 + 1,
+        );
         if trainer.step % log_every == 0 || trainer.step == steps {
-            trainer.history.push((trainer.step, acc.0 / acc.1 as f32));
-            acc = (0.0, 0);
+            let n = acc.3 as f32;
+            trainer.history.push((trainer.step, acc.0 / n));
+            trainer.terms.push((trainer.step, acc.1 / n, acc.2 / n));
+            acc = (0.0, 0.0, 0.0, 0);
         }
         bar.set(trainer.step, format!("loss {:.4}", stats.loss));
         let every = exp.train.checkpoint_every;

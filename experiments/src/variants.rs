@@ -42,7 +42,13 @@ use toml::{Table, Value};
 use crate::experiment::Experiment;
 
 /// Top-level keys of an ablation file that are not experiment keys.
-pub const RESERVED_TOP: [&str; 4] = ["variants", "base_name", "base_paper_iou", "paper_table"];
+pub const RESERVED_TOP: [&str; 5] = [
+    "variants",
+    "base_name",
+    "base_paper_iou",
+    "paper_table",
+    "seeds",
+];
 /// Keys of a `[[variants]]` entry that are not overrides.
 pub const RESERVED_VARIANT: [&str; 2] = ["name", "paper_iou"];
 
@@ -69,10 +75,32 @@ pub struct AblationFile {
     pub name: String,
     /// Where the paper's numbers come from (`paper_table`).
     pub paper_table: Option<String>,
+    /// Training seeds each entry runs with (`seeds = [0, 1]`): every entry is trained once per
+    /// seed into `<slug>/seed-<s>/` and reported as the mean over seeds × evaluation objects.
+    /// Empty: one run per entry with the file's `seed`, in `<slug>/`.
+    pub seeds: Vec<u64>,
     pub entries: Vec<Variant>,
 }
 
 impl AblationFile {
+    /// The seeds each entry is trained with (the file's `seed` when `seeds` is not given).
+    pub fn run_seeds(&self) -> Vec<u64> {
+        if self.seeds.is_empty() {
+            vec![self.base().experiment.seed]
+        } else {
+            self.seeds.clone()
+        }
+    }
+
+    /// The run directory of `entry` with `seed` under the ablation directory `root`.
+    pub fn run_dir(&self, root: &Path, entry: &Variant, seed: u64) -> PathBuf {
+        if self.seeds.is_empty() {
+            root.join(&entry.slug)
+        } else {
+            root.join(&entry.slug).join(format!("seed-{seed}"))
+        }
+    }
+
     /// The base (first entry).
     pub fn base(&self) -> &Variant {
         &self.entries[0]
@@ -108,6 +136,26 @@ impl AblationFile {
             None => None,
             Some(Value::String(s)) => Some(s),
             Some(_) => bail!("{file}: paper_table must be a string"),
+        };
+        let seeds = match top.remove("seeds") {
+            None => Vec::new(),
+            Some(Value::Array(a)) => {
+                let seeds: Vec<u64> = a
+                    .iter()
+                    .map(|v| match v {
+                        Value::Integer(i) if *i >= 0 => Ok(*i as u64),
+                        _ => Err(anyhow!("{file}: seeds must be non-negative integers")),
+                    })
+                    .collect::<Result<_>>()?;
+                let mut unique = seeds.clone();
+                unique.sort_unstable();
+                unique.dedup();
+                if seeds.is_empty() || unique.len() != seeds.len() {
+                    bail!("{file}: seeds must be a non-empty list of distinct integers");
+                }
+                seeds
+            }
+            Some(_) => bail!("{file}: seeds must be a list of integers, e.g. seeds = [0, 1]"),
         };
         let name = match top.get("name") {
             Some(Value::String(s)) => s.clone(),
@@ -163,6 +211,7 @@ impl AblationFile {
             path: path.to_path_buf(),
             name,
             paper_table,
+            seeds,
             entries,
         })
     }

@@ -97,6 +97,7 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
                 ("full model", Some(0.548)),
                 ("no importance sampling", Some(0.482)),
                 ("no boundary-aware", Some(0.524)),
+                ("boundary-aware (hull reading)", None),
             ],
             other => panic!("unexpected ablation file {other}"),
         };
@@ -170,6 +171,9 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
                     }
                 }
                 "no boundary-aware" => assert_eq!(json(&x.probe.assignment), "\"naive\""),
+                "boundary-aware (hull reading)" => {
+                    assert_eq!(json(&x.probe.assignment), "\"boundary_aware_hull\"")
+                }
                 "no regularizer" => assert_eq!(reg, r#"{"type":"none"}"#),
                 "p=2.0" | "p=1.0" => {
                     let p = &v.name[2..];

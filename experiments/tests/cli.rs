@@ -199,10 +199,10 @@ fn experiment_files_with_bad_keys_or_components_are_named() {
         ),
         (
             good.replace(
-                "ray_sampler = { type = \"uniform\" }",
-                "ray_sampler = { type = \"unifrom\" }",
+                "ray_sampler = { type = \"importance\"",
+                "ray_sampler = { type = \"importanse\"",
             ),
-            "unifrom",
+            "importanse",
         ),
         (
             good.lines()

@@ -11,12 +11,7 @@ use serde::{Deserialize, Serialize};
 pub struct NoRegularizer {}
 
 impl Regularizer for NoRegularizer {
-    fn loss(
-        &self,
-        _field: &FieldQuery<'_>,
-        _anchors: &Tensor<3>,
-        _phi: &Tensor<2>,
-    ) -> Option<Tensor<1>> {
+    fn loss(&self, _field: &FieldQuery<'_>, _anchors: &Tensor<3>) -> Option<Tensor<1>> {
         None
     }
 }

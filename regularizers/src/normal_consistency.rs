@@ -15,6 +15,17 @@
 //!
 //! * **Normals** are `∇φ/|∇φ|` as in the paper. φ is an occupancy (1 inside), so they point
 //!   *inwards* (for a ball, `n(q) = −q/|q|`); the sign does not change the loss.
+//! * **Differences of the logit** (`differences = "logit"`, the default): `φ = sigmoid(ℓ)` is
+//!   monotone in the logit `ℓ`, so `∇ℓ/|∇ℓ|` is the same normal as `∇φ/|∇φ|`, but the central
+//!   differences of a trained, saturated φ (≈ 0 or 1 at `±Δd` once the field is sharper than
+//!   Δd) are nearly constant and carry almost no gradient, while those of `ℓ` stay linear in the
+//!   parameters. `differences = "occupancy"` takes them of φ, the paper's literal formula. `W`
+//!   is always decided on φ. `η` below is in the units of the differenced function: φ per unit
+//!   length, or logits per unit length (a surface has `|∇ℓ| ≫ 1`, so it is as negligible).
+//! * **Which anchors**: every anchor the samplers drew for the step (`Regularizer::loss` gets
+//!   them all, not only those some ray meets): the inside of a silhouette, which no ray can
+//!   constrain, is exactly where the prior is needed. The gate needs φ there: one forward pass
+//!   over the step's anchors, detached (no backward).
 //! * **ε** (the width of `W`) defaults to **0.25**: `W` passes `φ ∈ (0.25, 0.75)`, logits within
 //!   `±ln 3 ≈ ±1.1`. The paper does not state ε. A narrow band (0.1 → logits within ±0.41) leaves
 //!   few anchors once the field has sharpened, and its neighbours across the band (`Δd = 0.03`
@@ -36,10 +47,13 @@
 //! * **Normalization**: `n = g / sqrt(|g|² + η²)` with `η =` [`GRADIENT_EPS`] `= 1e-3` (φ per unit
 //!   length; a surface has `|∇φ| ≳ 1`), so flat spots give a finite normal and a bounded gradient.
 //! * **`W` has no gradient** (an indicator): it is decided on detached values — the anchors on the
-//!   host from the given `phi` (one device→host read of `[B, N]` floats per step), the neighbours
-//!   on the device. The gradient flows through the normals only, to the model's parameters (and
-//!   through the given `phi`, which is the centre value of the neighbours' normals along their
-//!   own axis).
+//!   host (one device→host read of `[B, N]` floats per step), the neighbours on the device. The
+//!   gradient flows through the normals only, to the model's parameters.
+//! * **Gate subset**: with a cap (below), the gate reads φ at `4·max(1, max_anchors / B)` of each
+//!   object's anchors, evenly spaced in their sampled order (the samplers draw in random order, so
+//!   this is a uniform random subset), instead of all `N`: the term is a mean over anchors, so a
+//!   uniform subset estimates it without bias, and the gate pass (forward only, over `B·N`
+//!   points) no longer costs as much as the silhouette step. Without a cap the gate reads all.
 //! * **Anchor cap** (`max_anchors`, default 2048, 0 = no cap): the stencils of at most
 //!   `max(1, max_anchors / B)` passing anchors per object are evaluated, chosen evenly spaced over
 //!   that object's passing anchors in their sampled order (the samplers draw them in random order,
@@ -50,10 +64,11 @@
 //!
 //! # Cost
 //!
-//! An anchor needs φ at 25 lattice points `x + Δd·o` (its normal: `±e_a`; its neighbours: `±e_l`;
-//! their normals: `±e_l ± e_a`, i.e. `0`, `±2e_a` and the 12 `±e_l ± e_a`, `l ≠ a`). The centre is
-//! the given `phi`; the other 24 go through **one** field evaluation of shape `[B, 24·M, 3]`.
-//! So 2048 anchors cost about as much as decoding 49 k points forward and backward: on a 2-core
+//! An anchor needs φ at 25 lattice points `x + Δd·o` (itself; its normal: `±e_a`; its neighbours:
+//! `±e_l`; their normals: `±e_l ± e_a`, i.e. `0`, `±2e_a` and the 12 `±e_l ± e_a`, `l ≠ a`), all
+//! through **one** field evaluation of shape `[B, 25·M, 3]`, plus the detached gate pass over
+//! the step's `B·N` anchors. So 2048 stencils cost about as much as decoding 51 k points forward
+//! and backward: on a 2-core
 //! CPU (flex, decoder `[256, 256, 128]`, F = 5) 0.6–1.1 s, 5–8× a `fit-one`-sized silhouette step
 //! (8192 anchors), while 49 k points are ≈ 0.4× the paper's 8 × 16000 anchors. Lower
 //! `max_anchors` for small per-object fits; the capped term stays unbiased.
@@ -70,6 +85,35 @@ pub const PNORM_SMOOTHING: f32 = 1e-5;
 
 /// `η` of the normalization `n = g / sqrt(|g|² + η²)`.
 pub const GRADIENT_EPS: f32 = 1e-3;
+
+/// What the finite differences are taken of (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Differences {
+    /// The logit of φ: the same normals, with a gradient where φ saturates.
+    #[default]
+    Logit,
+    /// φ itself, the paper's literal formula.
+    Occupancy,
+}
+
+impl Differences {
+    /// φ from values of the differenced function.
+    fn phi(self, level: Tensor<3>) -> Tensor<3> {
+        match self {
+            Differences::Logit => burn::tensor::activation::sigmoid(level),
+            Differences::Occupancy => level,
+        }
+    }
+
+    /// φ from one value of the differenced function (host side).
+    pub fn phi_of(self, level: f64) -> f64 {
+        match self {
+            Differences::Logit => 1.0 / (1.0 + (-level).exp()),
+            Differences::Occupancy => level,
+        }
+    }
+}
 
 /// The p-norm normal-consistency regularizer (config and runtime).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -91,6 +135,9 @@ pub struct NormalConsistency {
     /// stencils evaluated; 0 = all.
     #[serde(default = "NormalConsistency::default_max_anchors")]
     pub max_anchors: usize,
+    /// `logit` (default) or `occupancy`: what the finite differences are taken of.
+    #[serde(default)]
+    pub differences: Differences,
 }
 
 impl NormalConsistency {
@@ -136,43 +183,55 @@ impl NormalConsistency {
         Ok(())
     }
 
+    /// How many of an object's `n` sampled anchors the gate reads φ at, in a batch of `b`
+    /// objects: all without a cap, else `4·max(1, max_anchors / b)` (see the module docs).
+    pub fn gated_per_object(&self, b: usize, n: usize) -> usize {
+        if self.max_anchors == 0 {
+            n
+        } else {
+            n.min(4 * (self.max_anchors / b.max(1)).max(1))
+        }
+    }
+
     /// `W(v)`.
     pub fn passes(&self, v: f32) -> bool {
         (v - 0.5).abs() < self.epsilon
     }
 
-    /// The term for anchors `[B, N, 3]` with values `phi` `[B, N]` under any field evaluator
-    /// (`[B, M, 3]` → `[B, M]`, object `b` of the points evaluated with object `b`'s field):
-    /// [`Regularizer::loss`] with `eval = |p| field.eval(p)`. Analytic fields can be passed
-    /// directly; `phi` must be `eval(anchors)`.
-    pub fn loss_with<F>(&self, eval: F, anchors: &Tensor<3>, phi: &Tensor<2>) -> Option<Tensor<1>>
+    /// The term for anchors `[B, N, 3]` under any evaluator of the differenced function (`[B, M,
+    /// 3]` → `[B, M]`, object `b` of the points evaluated with object `b`'s field; logits or φ
+    /// according to [`differences`](Self::differences)): [`Regularizer::loss`] with
+    /// `level = |p| field.logits(p)`. Analytic fields can be passed directly.
+    pub fn loss_with<F>(&self, level: F, anchors: &Tensor<3>) -> Option<Tensor<1>>
     where
         F: Fn(Tensor<3>) -> Tensor<2>,
     {
         if self.weight == 0.0 {
             return None;
         }
-        let [b, n] = phi.dims();
-        let host: Vec<f32> = phi
-            .clone()
-            .detach()
-            .try_into_vec_as::<f32>()
-            .expect("f32 field values");
+        let [b, all, _] = anchors.dims();
+        let n = self.gated_per_object(b, all);
+        let anchors = &if n < all {
+            let idx: Vec<i32> = (0..n).map(|i| (i * all / n) as i32).collect();
+            let idx = Tensor::<1, Int>::from_data(TensorData::new(idx, [n]), &anchors.device());
+            anchors.clone().select(1, idx)
+        } else {
+            anchors.clone()
+        };
+        let gate = self
+            .differences
+            .phi(level(anchors.clone()).detach().unsqueeze_dim::<3>(2));
+        let host: Vec<f32> = gate.try_into_vec_as::<f32>().expect("f32 field values");
         let sel = select_anchors(&host, b, n, self.epsilon, self.max_anchors)?;
-        let device = phi.device();
+        let device = anchors.device();
         let m = sel.per_object;
         let index = Tensor::<1, Int>::from_data(TensorData::new(sel.index, [b * m]), &device);
         let centres = anchors
             .clone()
             .reshape([b * n, 3])
-            .select(0, index.clone())
-            .reshape([b, m, 3]);
-        let phi_c = phi
-            .clone()
-            .reshape([b * n])
             .select(0, index)
-            .reshape([b, m]);
-        let stencil = eval_stencil(&eval, centres, phi_c, self.delta);
+            .reshape([b, m, 3]);
+        let stencil = eval_stencil(&level, centres, self.delta, self.differences);
         let terms = anchor_terms(&stencil, self.p, self.epsilon);
         let weights = Tensor::<2>::from_data(TensorData::new(sel.weight, [b, m]), &device);
         Some((terms * weights).sum().mul_scalar(self.weight))
@@ -187,18 +246,17 @@ impl Default for NormalConsistency {
             delta: Self::default_delta(),
             epsilon: Self::default_epsilon(),
             max_anchors: Self::default_max_anchors(),
+            differences: Differences::default(),
         }
     }
 }
 
 impl Regularizer for NormalConsistency {
-    fn loss(
-        &self,
-        field: &FieldQuery<'_>,
-        anchors: &Tensor<3>,
-        phi: &Tensor<2>,
-    ) -> Option<Tensor<1>> {
-        self.loss_with(|p| field.eval(p), anchors, phi)
+    fn loss(&self, field: &FieldQuery<'_>, anchors: &Tensor<3>) -> Option<Tensor<1>> {
+        match self.differences {
+            Differences::Logit => self.loss_with(|p| field.logits(p), anchors),
+            Differences::Occupancy => self.loss_with(|p| field.eval(p), anchors),
+        }
     }
 }
 
@@ -214,7 +272,7 @@ register_component!(
     Regularizer,
     "normal_consistency",
     "the paper's p-norm normal consistency of near-surface anchors and their 6 neighbours (eq. 7)",
-    "type = \"normal_consistency\"\nweight = 0.01\np = 0.8\ndelta = 0.03\nepsilon = 0.25\nmax_anchors = 2048"
+    "type = \"normal_consistency\"\nweight = 0.01\np = 0.8\ndelta = 0.03\nepsilon = 0.25\nmax_anchors = 2048\ndifferences = \"logit\""
 );
 
 /// The anchors whose stencils are evaluated: `per_object` slots per object.
@@ -291,7 +349,7 @@ pub(crate) fn select_anchors(
 
 /// The lattice of one anchor's stencil, in units of Δd.
 struct Lattice {
-    /// The offsets evaluated by the field (all but the centre): column `c + 1` of the values.
+    /// The offsets evaluated by the field, the centre first: column `c` of the values.
     offsets: Vec<[i32; 3]>,
     /// `[7·3]` for each normal point (the anchor, then `+x, −x, +y, −y, +z, −z`) and axis: the
     /// value columns of `q + e_a` and `q − e_a` (column 0 is the centre).
@@ -340,7 +398,7 @@ fn lattice() -> Lattice {
     }
     let neighbours = points[1..].iter().map(|&q| column(q)).collect();
     Lattice {
-        offsets: columns[1..].to_vec(),
+        offsets: columns,
         plus,
         minus,
         neighbours,
@@ -355,8 +413,14 @@ pub(crate) struct Stencil {
     pub neighbour_phi: Tensor<3>,
 }
 
-/// Evaluates the stencils of `centres` `[B, M, 3]` (with `phi_c = eval(centres)`) in one call.
-pub(crate) fn eval_stencil<F>(eval: &F, centres: Tensor<3>, phi_c: Tensor<2>, delta: f32) -> Stencil
+/// Evaluates the stencils of `centres` `[B, M, 3]` in one call of `level` (the differenced
+/// function; φ is `differences.phi` of it).
+pub(crate) fn eval_stencil<F>(
+    level: &F,
+    centres: Tensor<3>,
+    delta: f32,
+    differences: Differences,
+) -> Stencil
 where
     F: Fn(Tensor<3>) -> Tensor<2>,
 {
@@ -371,8 +435,7 @@ where
         .collect();
     let offsets = Tensor::<4>::from_data(TensorData::new(offsets, [1, 1, k, 3]), &device);
     let points: Tensor<4> = centres.unsqueeze_dim::<4>(2) + offsets;
-    let around = eval(points.reshape([b, m * k, 3])).reshape([b, m, k]);
-    let values = Tensor::cat(vec![phi_c.unsqueeze_dim::<3>(2), around], 2);
+    let values = level(points.reshape([b, m * k, 3])).reshape([b, m, k]);
     let columns =
         |c: &[i32]| Tensor::<1, Int>::from_data(TensorData::new(c.to_vec(), [c.len()]), &device);
     let plus = values.clone().select(2, columns(&lat.plus));
@@ -386,7 +449,7 @@ where
         .sqrt();
     Stencil {
         normals: g / norm,
-        neighbour_phi: values.select(2, columns(&lat.neighbours)),
+        neighbour_phi: differences.phi(values.select(2, columns(&lat.neighbours))),
     }
 }
 
@@ -417,19 +480,21 @@ pub(crate) fn anchor_terms(stencil: &Stencil, p: f32, epsilon: f32) -> Tensor<2>
 }
 
 /// A plain f64 implementation of `λ·L_geo` for one object (no cap: every anchor counts), the
-/// reference the tensor implementation is tested against. `f` is φ; `1/N` is `1/anchors.len()`.
-/// A batch's term is the mean of its objects' terms.
+/// reference the tensor implementation is tested against. `level` is the differenced function
+/// (logits or φ, per `config.differences`); `1/N` is `1/anchors.len()`. A batch's term is the
+/// mean of its objects' terms.
 pub fn reference_loss(
     config: &NormalConsistency,
-    f: impl Fn([f64; 3]) -> f64,
+    level: impl Fn([f64; 3]) -> f64,
     anchors: &[[f64; 3]],
 ) -> f64 {
+    let f = &level;
     let d = config.delta as f64;
     let eps = config.epsilon as f64;
     let p = config.p as f64;
     let s = PNORM_SMOOTHING as f64;
     let eta = GRADIENT_EPS as f64;
-    let w = |v: f64| (v - 0.5).abs() < eps;
+    let w = |v: f64| (config.differences.phi_of(v) - 0.5).abs() < eps;
     let at = |x: [f64; 3], o: [i32; 3]| {
         [
             x[0] + d * o[0] as f64,

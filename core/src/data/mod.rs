@@ -5,6 +5,7 @@ pub mod dataset;
 pub mod grid;
 pub mod hull;
 pub mod image;
+pub mod inside;
 pub mod mesh;
 pub mod procedural;
 pub mod render;

@@ -1,9 +1,16 @@
-//! Evaluation in the NMR protocol: 3D IoU at 32³ between the predicted occupancy at the voxel
-//! centres of NMR's grid ([`GridFrame`]) and the ground-truth voxels, for every test object and
-//! each of its 24 views as input; per category, then the mean over categories.
+//! Evaluation in the NMR protocol: 3D IoU at 32³ between a field's voxels and the ground-truth
+//! voxels, for every test object and each of its 24 views as input; per category, then the mean
+//! over categories.
 //!
-//! References computed on the same objects, so a number always has context:
-//! * the 24-view visual hull (centre test) — what silhouettes alone determine;
+//! A field becomes voxels the way the ground truth was made ([`occupancy`]): a voxel is occupied
+//! when φ reaches ½ anywhere inside it (max over an `S³` sub-grid), since NMR's ground truth marks
+//! every voxel the surface touches. φ read only at the voxel centres is kept as a secondary number
+//! (`centre_iou`): it is not dilated like the ground truth, so it caps a perfect field well below 1
+//! and pays over-sized fields.
+//!
+//! References computed on the same objects and converted the same way, so a number always has
+//! context:
+//! * the 24-view visual hull — what silhouettes alone determine;
 //! * the category mean shape — the mean of the training objects' visual hulls, thresholded at ½:
 //!   the prior silhouettes alone give; beating it shows the model reads the image;
 //! * the mean of the training ground-truth voxels (`mean_gt_shape_iou`), a prior that needs 3D.
@@ -11,34 +18,21 @@
 //! [`surface`] adds the mesh metrics of Occupancy Networks and DVR (Chamfer-L1, F-score, normal
 //! consistency) between an extracted mesh and a ground-truth mesh.
 
+pub mod occupancy;
 pub mod surface;
 
 use burn::prelude::*;
 
-use crate::data::hull::{HullTest, visual_hull};
 use crate::data::{GridFrame, Silhouette, TriMesh, VoxelGrid};
 use crate::extract::{ExtractOptions, extract_mesh};
 use crate::field::FieldModel;
 use crate::geometry::{Camera, NUM_VIEWS, PixelPos};
 use crate::train::TrainObject;
 use glam::Vec3;
+use occupancy::FieldVoxels;
 
 /// Points per decoder call when evaluating grids and renders (bounds memory).
 const CHUNK: usize = 16_384;
-
-/// World centres of the `res³` grid, `[x][y][z]` order, flattened `[M·3]`.
-pub fn grid_points(res: usize) -> Vec<f32> {
-    let f = GridFrame::new(res);
-    let mut out = Vec::with_capacity(res * res * res * 3);
-    for i in 0..res {
-        for j in 0..res {
-            for k in 0..res {
-                out.extend(f.centre(i, j, k).to_array());
-            }
-        }
-    }
-    out
-}
 
 /// φ at `points` (`[M·3]`) for one latent (`[1, Z]` or none), in chunks; `model` should be in
 /// evaluation mode (`valid()`), on `device`.
@@ -76,34 +70,44 @@ pub fn occupancy_grid(values: &[f32], res: usize) -> VoxelGrid {
     }
 }
 
-/// The predicted voxel grid of one latent (none for a per-object field): φ at the grid's voxel
-/// centres, thresholded at ½.
-pub fn predict_grid(
+/// The voxels of one latent's field (none for a per-object field) in the max-pool protocol
+/// ([`occupancy::field_voxels`], `s³` sub-grid points per voxel), with the centre test beside
+/// them. φ is read only inside the field's domain, as for meshes and renders.
+pub fn predict_voxels(
     model: &FieldModel,
     latent: Option<&Tensor<2>>,
     res: usize,
+    s: usize,
     device: &Device,
-) -> VoxelGrid {
-    occupancy_grid(&field_values(model, latent, &grid_points(res), device), res)
+) -> FieldVoxels {
+    let mut field = |p: &[f32]| in_domain(p, |inside| field_values(model, latent, inside, device));
+    occupancy::field_voxels(&mut field, res, s, OCCUPANCY_THRESHOLD)
 }
 
-/// Predicted voxel grids of an object from its view latents ([`encode_views`]), one per input
-/// view in `views` (a single one for a per-object field, which has no latents).
-pub fn predict_grids(
+/// [`predict_voxels`] of an object from its view latents ([`encode_views`]), one per input view
+/// in `views` (a single one for a per-object field, which has no latents).
+pub fn predict_all_views(
     model: &FieldModel,
     latents: Option<&Tensor<2>>,
     views: &[usize],
     res: usize,
+    s: usize,
     device: &Device,
-) -> Vec<VoxelGrid> {
+) -> Vec<FieldVoxels> {
     match latents {
         Some(latents) => views
             .iter()
-            .map(|&v| predict_grid(model, Some(&latents.clone().narrow(0, v, 1)), res, device))
+            .map(|&v| {
+                let z = latents.clone().narrow(0, v, 1);
+                predict_voxels(model, Some(&z), res, s, device)
+            })
             .collect(),
-        None => vec![predict_grid(model, None, res, device)],
+        None => vec![predict_voxels(model, None, res, s, device)],
     }
 }
+
+/// φ's level that separates inside from outside (the occupancy network's ½).
+pub const OCCUPANCY_THRESHOLD: f32 = 0.5;
 
 /// The surface `φ = threshold` of a model's field for one latent (none for a per-object field),
 /// by MISE + marching cubes ([`crate::extract`]). As in [`render_silhouette`], φ is read only
@@ -152,14 +156,30 @@ pub fn in_domain(points: &[f32], field: impl FnOnce(&[f32]) -> Vec<f32>) -> Vec<
         .collect()
 }
 
-/// The centre-test 24-view visual hull of an object.
-pub fn object_hull(obj: &TrainObject, res: usize) -> VoxelGrid {
-    visual_hull(
-        &obj.supervision.silhouettes,
-        &obj.supervision.cameras,
-        res,
-        HullTest::Centre,
-    )
+/// The 24-view visual hull of an object as a 0/1 field: a point is inside when it projects where
+/// every silhouette is at least ½ (bilinear).
+pub fn hull_field(obj: &TrainObject) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
+    let sup = &obj.supervision;
+    move |points: &[f32]| {
+        points
+            .chunks_exact(3)
+            .map(|p| {
+                let p = Vec3::from_slice(p);
+                let inside = sup
+                    .cameras
+                    .iter()
+                    .zip(&sup.silhouettes)
+                    .all(|(cam, sil)| sil.bilinear(cam.project(p).0) >= 0.5);
+                inside as u8 as f32
+            })
+            .collect()
+    }
+}
+
+/// The 24-view visual hull of an object, converted to voxels like a predicted field
+/// ([`occupancy::field_voxels`] of [`hull_field`]).
+pub fn object_hull(obj: &TrainObject, res: usize, s: usize) -> FieldVoxels {
+    occupancy::field_voxels(&mut hull_field(obj), res, s, OCCUPANCY_THRESHOLD)
 }
 
 /// Per-voxel mean of `grids`, thresholded at ½.

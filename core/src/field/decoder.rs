@@ -115,6 +115,12 @@ impl Decoder {
 
     /// Occupancy `[B, N]` at `points` `[B, N, 3]`.
     pub fn forward(&self, latent: Option<Tensor<2>>, points: Tensor<3>) -> Tensor<2> {
+        sigmoid(self.forward_logits(latent, points))
+    }
+
+    /// The logits `[B, N]` at `points` `[B, N, 3]` (φ = sigmoid of them): what finite
+    /// differences should be taken of, since they keep a gradient where φ saturates.
+    pub fn forward_logits(&self, latent: Option<Tensor<2>>, points: Tensor<3>) -> Tensor<2> {
         let mut x = self.point_in.forward(self.encode_points(points));
         if let (Some(layer), Some(z)) = (&self.latent_in, latent) {
             let zb: Tensor<3> = layer.forward(z).unsqueeze_dim(1);
@@ -125,6 +131,6 @@ impl Decoder {
             x = relu(layer.forward(x));
         }
         let logits: Tensor<3> = self.out.forward(x);
-        sigmoid(logits.squeeze_dim(2))
+        logits.squeeze_dim(2)
     }
 }

@@ -135,4 +135,12 @@ impl FieldModel {
             FieldModel::PerObject(m) => m.decoder.forward(None, points),
         }
     }
+
+    /// The logits of [`decode`](Self::decode) (`φ = sigmoid(logits)`).
+    pub fn decode_logits(&self, latent: Option<Tensor<2>>, points: Tensor<3>) -> Tensor<2> {
+        match self {
+            FieldModel::SingleView(m) => m.decoder.forward_logits(latent, points),
+            FieldModel::PerObject(m) => m.decoder.forward_logits(None, points),
+        }
+    }
 }

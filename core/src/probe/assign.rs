@@ -34,6 +34,12 @@ pub enum AssignmentPolicy {
     /// through an outside pixel ignores anchors whose centre projects inside it. The silhouette
     /// of the ray's own view is the evidence: it is exactly what decides the ray's label.
     BoundaryAware,
+    /// The other reading of the paper's "anchors inside the object": the evidence is the
+    /// object's visual hull of all its views (an anchor is inside when its centre projects
+    /// inside every silhouette), the same for every ray. An inside ray then ignores anchors off
+    /// the hull even where its own silhouette covers them (behind or in front of the object),
+    /// and an outside ray ignores only hull anchors.
+    BoundaryAwareHull,
 }
 
 /// The probing rays of one object: all views' rays, with the view each belongs to.
@@ -114,7 +120,9 @@ fn keeps(
 ) -> bool {
     match policy {
         AssignmentPolicy::Naive => true,
-        AssignmentPolicy::BoundaryAware => inside[view][a] == (label >= 0.5),
+        AssignmentPolicy::BoundaryAware | AssignmentPolicy::BoundaryAwareHull => {
+            inside[view][a] == (label >= 0.5)
+        }
     }
 }
 
@@ -141,6 +149,18 @@ fn silhouette_evidence(
                     .collect()
             })
             .collect(),
+        AssignmentPolicy::BoundaryAwareHull => {
+            let hull: Vec<bool> = anchors
+                .iter()
+                .map(|&a| {
+                    cameras.iter().zip(silhouettes).all(|(cam, sil)| {
+                        let (px, depth) = cam.project(a);
+                        depth > 0.0 && sil.bilinear(px) >= 0.5
+                    })
+                })
+                .collect();
+            vec![hull; cameras.len()]
+        }
     }
 }
 
@@ -348,7 +368,11 @@ mod tests {
             (3, 2.0, 0.2),
         ] {
             let (anchors, rays) = random_probe(seed, 3000, 800, spread);
-            for policy in [AssignmentPolicy::Naive, AssignmentPolicy::BoundaryAware] {
+            for policy in [
+                AssignmentPolicy::Naive,
+                AssignmentPolicy::BoundaryAware,
+                AssignmentPolicy::BoundaryAwareHull,
+            ] {
                 let p = Probe {
                     cameras: &cams,
                     silhouettes: &sils,
@@ -367,6 +391,39 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The two readings of boundary-aware assignment differ on an anchor inside the ray's own
+    /// silhouette but outside another view's: the own-silhouette reading keeps it for an inside
+    /// ray, the hull reading drops it; naive keeps it.
+    #[test]
+    fn hull_reading_drops_anchors_off_the_hull_that_the_own_silhouette_keeps() {
+        let cams = [Camera::nmr(0), Camera::nmr(6)];
+        let mut full = Silhouette::empty(64);
+        full.data.fill(1.0);
+        let sils = [full, Silhouette::empty(64)];
+        let anchor = Vec3::new(0.05, 0.02, -0.03);
+        let (px, _) = cams[0].project(anchor);
+        let rays = RaySet {
+            views: vec![0],
+            pixels: vec![px],
+            labels: vec![1.0],
+        };
+        let kept = |policy| {
+            assign_all_pairs(Probe {
+                cameras: &cams,
+                silhouettes: &sils,
+                anchors: &[anchor],
+                rays: &rays,
+                radius: 0.03,
+                policy,
+            })
+            .of(0)
+            .len()
+        };
+        assert_eq!(kept(AssignmentPolicy::Naive), 1);
+        assert_eq!(kept(AssignmentPolicy::BoundaryAware), 1);
+        assert_eq!(kept(AssignmentPolicy::BoundaryAwareHull), 0);
     }
 
     #[test]

@@ -81,6 +81,11 @@ pub struct ProbeBatch {
     pub anchors_per_object: usize,
     /// `[B, N, 3]` anchor coordinates.
     pub anchors: Vec<f32>,
+    /// `[B, S, 3]` every anchor the samplers drew (`S` per object, in sampled order), whether a
+    /// ray meets it or not: what regularizers see.
+    pub sampled: Vec<f32>,
+    /// Anchors sampled per object (`S`).
+    pub sampled_per_object: usize,
     /// Rays in the batch.
     pub rays: usize,
     /// Padded anchors per ray.
@@ -113,8 +118,8 @@ impl ProbeBatch {
     /// rectangular): an anchor on no ray contributes nothing to `L_sil`, and at CPU-scale
     /// densities most anchors are on no ray, so this removes most decoder work without changing
     /// a single ray's prediction. At paper scale nearly every anchor is met and it changes
-    /// nothing. Regularizers then see the kept anchors — every probed anchor plus a few others —
-    /// rather than all sampled ones. `compact = false` is the plain reference.
+    /// nothing. Regularizers see every sampled anchor either way ([`ProbeBatch::sampled`]).
+    /// `compact = false` is the plain reference.
     pub fn assemble(objects: &[ObjectProbe], compact: bool) -> Self {
         let n = objects.first().map_or(0, |o| o.anchors.len());
         assert!(
@@ -172,9 +177,15 @@ impl ProbeBatch {
             }
             labels.extend_from_slice(&o.rays.labels);
         }
+        let sampled = objects
+            .iter()
+            .flat_map(|o| o.anchors.iter().flat_map(|a| a.to_array()))
+            .collect();
         Self {
             objects: objects.len(),
             anchors_per_object: kept,
+            sampled,
+            sampled_per_object: n,
             views_per_object: objects.first().map_or(1, |o| distinct_views(&o.rays.views)),
             anchors,
             rays,

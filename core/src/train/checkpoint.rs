@@ -21,6 +21,9 @@ pub struct CheckpointState {
     /// Sub-directory holding `model.bpk` and `optim.bpk`.
     pub dir: String,
     pub history: Vec<(usize, f32)>,
+    /// `(step, silhouette, regularizers)` per logged interval (absent in older checkpoints).
+    #[serde(default)]
+    pub terms: Vec<(usize, f32, f32)>,
 }
 
 const LATEST: &str = "latest.json";
@@ -49,6 +52,7 @@ pub fn save(trainer: &Trainer, dir: &Path) -> Result<()> {
         step: trainer.step,
         dir: name.clone(),
         history: trainer.history.clone(),
+        terms: trainer.terms.clone(),
     };
     let text = serde_json::to_string_pretty(&state).expect("state serializes");
     write_atomic(&dir.join(LATEST), |w| {
@@ -111,6 +115,7 @@ pub fn load(config: &FieldModelConfig, device: &Device, dir: &Path) -> Result<Tr
         device,
         step: state.step,
         history: state.history,
+        terms: state.terms,
     })
 }
 

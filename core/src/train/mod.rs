@@ -268,8 +268,12 @@ pub fn probe_loss(
         .mean()
         .mul_scalar(b.views_per_object as f32);
     let reg = comps.regularizer.as_ref().and_then(|r| {
+        let sampled = Tensor::<3>::from_data(
+            TensorData::new(b.sampled.clone(), [nb, b.sampled_per_object, 3]),
+            device,
+        );
         let field = FieldQuery { model, latent };
-        r.loss(&field, &anchors, &phi)
+        r.loss(&field, &sampled)
     });
     let total = match &reg {
         Some(r) => sil.clone() + r.clone(),
@@ -288,6 +292,8 @@ pub struct Trainer {
     pub step: usize,
     /// Mean loss per logged interval: `(step, loss)`.
     pub history: Vec<(usize, f32)>,
+    /// The loss's terms per logged interval: `(step, silhouette, regularizers)` (means).
+    pub terms: Vec<(usize, f32, f32)>,
 }
 
 impl std::fmt::Debug for Trainer {
@@ -311,6 +317,7 @@ impl Trainer {
             device,
             step: 0,
             history: Vec::new(),
+            terms: Vec::new(),
         }
     }
 

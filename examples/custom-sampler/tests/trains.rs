@@ -26,6 +26,8 @@ fn stratified_toml_trains_and_writes_metrics() {
         file,
         out: Some(out.clone()),
         resume: false,
+        variant: None,
+        seed: None,
     })
     .unwrap();
     let metrics: serde_json::Value =

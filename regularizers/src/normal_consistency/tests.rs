@@ -108,9 +108,13 @@ fn plane_t(n: Vec3, c: f32, h: impl Fn(Tensor<2>) -> Tensor<2>) -> impl Fn(Tenso
 }
 
 fn with(p: f32, delta: f32) -> NormalConsistency {
+    NormalConsistency { p, delta, ..occ() }
+}
+
+/// The defaults with differences of φ itself: the analytic fields of these tests are occupancies.
+fn occ() -> NormalConsistency {
     NormalConsistency {
-        p,
-        delta,
+        differences: Differences::Occupancy,
         ..Default::default()
     }
 }
@@ -123,8 +127,7 @@ fn tensor_loss<F: Fn(Tensor<3>) -> Tensor<2>>(
 ) -> Option<f64> {
     let dev = Device::flex();
     let a = points(anchors, &dev);
-    let phi = f(a.clone());
-    cfg.loss_with(f, &a, &phi).map(scalar)
+    cfg.loss_with(f, &a).map(scalar)
 }
 
 fn rel(a: f64, b: f64) -> f64 {
@@ -162,20 +165,14 @@ fn defaults_are_the_papers_and_validation_names_the_field() {
 #[test]
 fn the_lattice_has_25_distinct_points_and_each_normal_its_own_pairs() {
     let lat = lattice();
-    assert_eq!(lat.offsets.len(), 24);
-    assert!(!lat.offsets.contains(&[0, 0, 0]));
+    assert_eq!(lat.offsets.len(), 25);
+    assert_eq!(lat.offsets[0], [0, 0, 0], "the centre is column 0");
     for (i, o) in lat.offsets.iter().enumerate() {
         assert!(!lat.offsets[i + 1..].contains(o), "duplicate {o:?}");
         // Every point is within 2 steps on at most two axes.
         assert!(o.iter().map(|c| c.abs()).sum::<i32>() <= 2, "{o:?}");
     }
-    let col = |c: i32| {
-        if c == 0 {
-            [0; 3]
-        } else {
-            lat.offsets[c as usize - 1]
-        }
-    };
+    let col = |c: i32| lat.offsets[c as usize];
     let pts = normal_points();
     assert_eq!(pts.len(), 7);
     for (i, &q) in pts.iter().enumerate() {
@@ -236,7 +233,7 @@ fn ball_normal_error(delta: f32) -> f64 {
     let mut anchors = on_sphere(0.3);
     anchors.extend(on_sphere(0.27));
     let a = points(std::slice::from_ref(&anchors), &dev);
-    let st = eval_stencil(&f, a.clone(), f(a), delta);
+    let st = eval_stencil(&f, a, delta, Differences::Occupancy);
     let n: Vec<f32> = st.normals.try_into_vec_as::<f32>().unwrap();
     let mut worst = 0.0f64;
     for (j, x) in anchors.iter().enumerate() {
@@ -276,7 +273,7 @@ fn planes_have_consistent_normals() {
     let objs = vec![anchors.clone()];
     // A linear ramp: central differences are exact, every normal is n.
     let ramp = plane_t(n, 0.05, |s| s.mul_scalar(0.7).add_scalar(0.5));
-    let cfg = NormalConsistency::default();
+    let cfg = occ();
     // A curved surface for scale (≈ 2·10⁻³): "zero" below means f32 noise, far under it.
     let ball_loss = tensor_loss(&cfg, ball_t(10.0, 0.3), &[on_sphere(0.3)]).unwrap();
     let ramp_loss = tensor_loss(&cfg, ramp, &objs).unwrap();
@@ -343,12 +340,26 @@ fn model_fn<'a>(
     latent: Option<Tensor<2>>,
     device: &'a Device,
 ) -> impl Fn(Vec3) -> f64 + 'a {
+    model_level(model, latent, device, Differences::Occupancy)
+}
+
+/// The differenced function of a model at one point: φ or its logit.
+fn model_level<'a>(
+    model: &'a FieldModel,
+    latent: Option<Tensor<2>>,
+    device: &'a Device,
+    differences: Differences,
+) -> impl Fn(Vec3) -> f64 + 'a {
     move |q: Vec3| {
         let t = Tensor::<3>::from_data(
             TensorData::new(q.map(|c| c as f32).to_vec(), [1, 1, 3]),
             device,
         );
-        model.decode(latent.clone(), t).into_scalar::<f32>() as f64
+        let v = match differences {
+            Differences::Logit => model.decode_logits(latent.clone(), t),
+            Differences::Occupancy => model.decode(latent.clone(), t),
+        };
+        v.into_scalar::<f32>() as f64
     }
 }
 
@@ -413,23 +424,31 @@ fn check_model(config: &FieldModelConfig, latent_size: usize) {
             model: &model,
             latent: latent.clone(),
         };
-        let phi = field.eval(a.clone());
-        for p in [0.8f32, 2.0] {
+        for (p, differences) in [
+            (0.8f32, Differences::Occupancy),
+            (2.0, Differences::Occupancy),
+            (0.8, Differences::Logit),
+            (2.0, Differences::Logit),
+        ] {
             let cfg = NormalConsistency {
                 p,
                 delta,
                 epsilon,
                 max_anchors: 0,
                 weight: 0.5,
+                differences,
             };
-            let got = scalar(cfg.loss(&field, &a, &phi).expect("anchors pass"));
+            let got = scalar(cfg.loss(&field, &a).expect("anchors pass"));
             let want = (0..b)
-                .map(|o| reference_loss(&cfg, &fs[o], &anchors[o]))
+                .map(|o| {
+                    let level = model_level(&model, row(o), &dev, differences);
+                    reference_loss(&cfg, level, &anchors[o])
+                })
                 .sum::<f64>()
                 / b as f64;
             assert!(
                 rel(got, want) < 1e-4,
-                "p = {p}, Δd = {delta}, ε = {epsilon}: tensor {got} vs reference {want}"
+                "p = {p}, Δd = {delta}, ε = {epsilon}, {differences:?}: tensor {got} vs reference {want}"
             );
         }
     }
@@ -501,7 +520,7 @@ fn a_smaller_p_weighs_small_normal_differences_more() {
 
 #[test]
 fn anchors_off_the_surface_contribute_nothing() {
-    let cfg = NormalConsistency::default();
+    let cfg = occ();
     // |φ − 0.5| ≥ ε at every anchor: nothing is evaluated.
     let far: Vec<Vec3> = on_sphere(0.05).into_iter().chain(on_sphere(0.5)).collect();
     let phi = ball_f(30.0, 0.3);
@@ -528,10 +547,7 @@ fn anchors_off_the_surface_contribute_nothing() {
 fn the_weight_scales_the_term_linearly() {
     let objs = vec![on_sphere(0.3)];
     let l = |w: f32| {
-        let cfg = NormalConsistency {
-            weight: w,
-            ..Default::default()
-        };
+        let cfg = NormalConsistency { weight: w, ..occ() };
         tensor_loss(&cfg, ball_t(10.0, 0.3), &objs)
     };
     let (a, b) = (l(0.01).unwrap(), l(0.05).unwrap());
@@ -552,7 +568,7 @@ fn the_capped_term_is_the_reweighted_subset() {
         .collect();
     let cfg = NormalConsistency {
         max_anchors: 6,
-        ..Default::default()
+        ..occ()
     };
     let f = ball_f(k, r);
     let got = tensor_loss(&cfg, ball_t(k as f32, r as f32), &anchors).unwrap();
@@ -565,16 +581,20 @@ fn the_capped_term_is_the_reweighted_subset() {
         &anchors,
     )
     .unwrap();
+    // The gate reads 4·3 = 12 of each object's 24 anchors (every second one), keeps 3 evenly
+    // spaced passing ones and weighs each by (passing / kept) / (B · 12).
+    assert_eq!(cfg.gated_per_object(2, 24), 12);
     let mut want = 0.0;
     for (o, objs) in anchors.iter().enumerate() {
         let passing: Vec<Vec3> = objs
             .iter()
+            .step_by(2)
             .copied()
             .filter(|&x| (f(x) - 0.5).abs() < 0.25)
             .collect();
         assert!(passing.len() > 3, "object {o}: {} pass", passing.len());
         let kept: Vec<Vec3> = (0..3).map(|i| passing[i * passing.len() / 3]).collect();
-        want += reference_loss(&cfg, &f, &kept) * passing.len() as f64 / (2.0 * 24.0);
+        want += reference_loss(&cfg, &f, &kept) * passing.len() as f64 / (2.0 * 12.0);
     }
     assert!(rel(got, want) < 1e-4, "capped {got} vs reference {want}");
     assert!(got != uncapped, "the cap should take a subset");
@@ -623,14 +643,14 @@ fn gradients_reach_every_parameter_and_are_finite() {
         latent: None,
     };
     // ε = 0.5 lets every anchor pass (a fresh model is near 0.5 everywhere anyway).
-    for p in [0.8f32, 2.0] {
-        let phi = field.eval(a.clone());
+    for (p, differences) in [(0.8f32, Differences::Logit), (2.0, Differences::Occupancy)] {
         let cfg = NormalConsistency {
             p,
             epsilon: 0.5,
+            differences,
             ..Default::default()
         };
-        let loss = cfg.loss(&field, &a, &phi).unwrap();
+        let loss = cfg.loss(&field, &a).unwrap();
         let grads = loss.backward();
         let mut stats = GradStats {
             grads: &grads,
@@ -697,8 +717,7 @@ fn cost_of_the_regularizer_against_a_silhouette_step() {
         ..Default::default()
     };
     let regularizer_step = || {
-        let phi = field.eval(a.clone());
-        let loss = cfg.loss(&field, &a, &phi).unwrap();
+        let loss = cfg.loss(&field, &a).unwrap();
         let _ = loss.backward();
         let _ = dev.sync();
     };
