@@ -13,6 +13,7 @@
 //!
 //! Footprint queries use a summed-area table per view, so each is O(1).
 
+use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::grid::{GridFrame, VoxelGrid};
@@ -64,6 +65,15 @@ impl CoverageTable {
         let at = |r: i64, c: i64| self.sums[r as usize * w + c as usize] as i64;
         at(rb, cb) - at(ra, cb) - at(rb, ca) + at(ra, ca) > 0
     }
+}
+
+/// Whether point `p` lies inside the visual hull of `silhouettes` seen by `cameras` as a point
+/// set: in front of every camera, projecting where every silhouette is at least ½ (bilinear).
+pub fn projects_inside(silhouettes: &[Silhouette], cameras: &[Camera], p: Vec3) -> bool {
+    cameras.iter().zip(silhouettes).all(|(cam, sil)| {
+        let (px, depth) = cam.project(p);
+        depth > 0.0 && sil.bilinear(px) >= 0.5
+    })
 }
 
 /// The visual hull of `silhouettes` seen by `cameras` on the NMR grid at `resolution`.

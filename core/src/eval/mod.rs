@@ -23,7 +23,8 @@ pub mod surface;
 
 use burn::prelude::*;
 
-use crate::data::{GridFrame, Silhouette, TriMesh, VoxelGrid};
+use crate::data::hull::projects_inside;
+use crate::data::{Silhouette, TriMesh, VoxelGrid};
 use crate::extract::{ExtractOptions, extract_mesh};
 use crate::field::FieldModel;
 use crate::geometry::{Camera, NUM_VIEWS, PixelPos};
@@ -60,14 +61,6 @@ pub fn encode_views(model: &FieldModel, obj: &TrainObject, device: &Device) -> O
         TensorData::new(px, [NUM_VIEWS, 4, s, s]),
         device,
     ))
-}
-
-/// The grid thresholded at ½.
-pub fn occupancy_grid(values: &[f32], res: usize) -> VoxelGrid {
-    VoxelGrid {
-        frame: GridFrame::new(res),
-        data: values.iter().map(|&v| v >= 0.5).collect(),
-    }
 }
 
 /// The voxels of one latent's field (none for a per-object field) in the max-pool protocol
@@ -156,21 +149,14 @@ pub fn in_domain(points: &[f32], field: impl FnOnce(&[f32]) -> Vec<f32>) -> Vec<
         .collect()
 }
 
-/// The 24-view visual hull of an object as a 0/1 field: a point is inside when it projects where
-/// every silhouette is at least ½ (bilinear).
+/// The 24-view visual hull of an object as a 0/1 field ([`projects_inside`]).
 pub fn hull_field(obj: &TrainObject) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
     let sup = &obj.supervision;
     move |points: &[f32]| {
         points
             .chunks_exact(3)
             .map(|p| {
-                let p = Vec3::from_slice(p);
-                let inside = sup
-                    .cameras
-                    .iter()
-                    .zip(&sup.silhouettes)
-                    .all(|(cam, sil)| sil.bilinear(cam.project(p).0) >= 0.5);
-                inside as u8 as f32
+                projects_inside(&sup.silhouettes, &sup.cameras, Vec3::from_slice(p)) as u8 as f32
             })
             .collect()
     }

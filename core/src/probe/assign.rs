@@ -20,6 +20,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::data::Silhouette;
+use crate::data::hull::projects_inside;
 use crate::geometry::{Camera, PixelPos};
 
 /// Which ray–anchor pairs count (paper §3.1).
@@ -152,12 +153,7 @@ fn silhouette_evidence(
         AssignmentPolicy::BoundaryAwareHull => {
             let hull: Vec<bool> = anchors
                 .iter()
-                .map(|&a| {
-                    cameras.iter().zip(silhouettes).all(|(cam, sil)| {
-                        let (px, depth) = cam.project(a);
-                        depth > 0.0 && sil.bilinear(px) >= 0.5
-                    })
-                })
+                .map(|&a| projects_inside(silhouettes, cameras, a))
                 .collect();
             vec![hull; cameras.len()]
         }
