@@ -1214,6 +1214,7 @@ mod tests {
             split: "test".into(),
             resolution: 32,
             subsamples: 4,
+            maxpool: Default::default(),
             steps: 10,
             train_seconds: 5.0,
             eval_seconds: 1.0,

@@ -162,14 +162,14 @@ pub fn evaluate(
     let bar = crate::progress::Progress::new("eval", total, 0);
     let mut out = BTreeMap::new();
     for cat in data {
-        let (res, sub) = (cfg.resolution, cfg.subsamples);
+        let protocol = cfg.protocol();
         let (mean_hull, mean_gt) = if per_object_fit {
             (None, None)
         } else {
             let hulls: Vec<_> = cat
                 .train
                 .iter()
-                .map(|o| object_hull(o, res, sub).maxpool)
+                .map(|o| object_hull(o, &protocol).maxpool)
                 .collect();
             (mean_shape(&hulls), mean_shape(&cat.train_gt))
         };
@@ -183,8 +183,8 @@ pub fn evaluate(
             .enumerate()
         {
             let latents = encode_views(model, obj, device);
-            let preds = predict_all_views(model, latents.as_ref(), &views, res, sub, device);
-            let hull = object_hull(obj, res, sub).maxpool;
+            let preds = predict_all_views(model, latents.as_ref(), &views, &protocol, device);
+            let hull = object_hull(obj, &protocol).maxpool;
             let obj_iou = mean(&preds.iter().map(|p| p.maxpool.iou(gt)).collect::<Vec<_>>());
             acc.iou.push(obj_iou);
             acc.centre.extend(preds.iter().map(|p| p.centre.iou(gt)));

@@ -33,6 +33,7 @@ use anyhow::{Context, Result, bail};
 use fieldprobe_backends::BackendChoice;
 use fieldprobe_core::data::Category;
 use fieldprobe_core::data::dataset::Split;
+use fieldprobe_core::eval::occupancy::{MaxPoolPath, VoxelProtocol};
 use fieldprobe_core::extract::ExtractOptions;
 use fieldprobe_core::field::FieldModelConfig;
 use fieldprobe_core::probe::{
@@ -157,11 +158,16 @@ pub struct EvalConfig {
     /// Input views per test object (NMR protocol: all 24).
     #[serde(default = "all_views")]
     pub views: usize,
-    /// Sub-grid points per voxel and axis of the max-pool protocol: a voxel is occupied when φ
-    /// reaches ½ at any of its `subsamples³` points (default 4: 128³ max-pooled to 32³; 8 changes
-    /// the quickstart's IoUs by under 0.005, see README).
+    /// Lattice cells per voxel and axis of the max-pool protocol: a voxel is occupied when φ
+    /// reaches ½ at any of the `(subsamples + 1)³` lattice points of its closed cell (default 4:
+    /// 128³ max-pooled to 32³; see README "Evaluation" for what 8 changes).
     #[serde(default = "subsamples")]
     pub subsamples: usize,
+    /// `"refined"` (default): the lattice only where φ at the voxel centres leaves a voxel open,
+    /// for fields smooth at voxel scale (trained ones); `"dense"`: the whole lattice, the
+    /// definition, for any field (65× the centre test at 4).
+    #[serde(default)]
+    pub maxpool: MaxPoolPath,
     /// Samples per ray when rendering a field's silhouettes (per-object fits, the gallery).
     #[serde(default = "silhouette_samples")]
     pub silhouette_samples: usize,
@@ -172,7 +178,8 @@ pub struct EvalConfig {
     #[serde(default = "mesh_views")]
     pub mesh_views: usize,
     /// How meshes are extracted (`[eval.extract]`: resolution, refinements, threshold, …;
-    /// default Occupancy Networks' 32³ with two MISE refinements at ½).
+    /// default 64³ with one MISE refinement at ½, Occupancy Networks' final 128³ from a coarse
+    /// grid that does not lose parts thinner than 1/31 of the cube).
     #[serde(default)]
     pub extract: ExtractOptions,
     /// Points sampled on each surface for Chamfer-L1, F-score and normal consistency (default
@@ -188,6 +195,17 @@ pub struct EvalConfig {
     /// Test objects per category shown in `gallery.png` (0: no gallery).
     #[serde(default = "gallery_objects")]
     pub gallery_objects: usize,
+}
+
+impl EvalConfig {
+    /// The grid and the field-to-voxels conversion these settings ask for.
+    pub fn protocol(&self) -> VoxelProtocol {
+        VoxelProtocol {
+            resolution: self.resolution,
+            subsamples: self.subsamples,
+            path: self.maxpool,
+        }
+    }
 }
 
 fn subsamples() -> usize {
@@ -224,6 +242,7 @@ impl Default for EvalConfig {
             resolution: res32(),
             views: all_views(),
             subsamples: subsamples(),
+            maxpool: MaxPoolPath::default(),
             silhouette_samples: silhouette_samples(),
             mesh_views: mesh_views(),
             extract: ExtractOptions::default(),

@@ -249,7 +249,7 @@ fn compare(
     let (mesh_iou, surface) = score_mesh(mesh, &gt_voxels, Some(&gt_surface), cfg, 1);
     Ok(ReconstructMetrics {
         mesh_iou,
-        grid_iou: predict_voxels(model, latent, res, cfg.subsamples, device)
+        grid_iou: predict_voxels(model, latent, &cfg.protocol(), device)
             .maxpool
             .iou(&gt_voxels),
         surface: surface.expect("a reference surface was given"),

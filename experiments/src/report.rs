@@ -59,15 +59,20 @@ pub fn render(exp: &Experiment, m: &Metrics, gallery: &[GalleryRow], curves: boo
     );
     let _ = writeln!(
         s,
-        "Model IoU is the max-pool protocol: a voxel is occupied when φ reaches ½ anywhere in it \
-         ({sub}³ points per voxel), the way NMR's ground truth marks every voxel the surface touches; \
-         the references are converted the same way. Centre IoU reads φ at voxel centres only (not \
+        "Model IoU is the max-pool protocol: a voxel is occupied when φ reaches ½ anywhere in its \
+         closed cell (max over its ({sub}+1)³ lattice points, {sub}³ cells per voxel, by the {path} \
+         path), the way NMR's ground truth marks every voxel whose edges the surface crosses; the \
+         references are converted the same way. Centre IoU reads φ at voxel centres only (not \
          dilated like the ground truth; secondary). Outside hull is the share of predicted voxels \
          outside the object's 24-view visual hull. The visual hull is what the 24 silhouettes alone \
          determine; the category mean shape is the mean of the training objects' visual hulls (the \
          prior silhouettes give), so a model that beats it reads the image. The mean GT shape needs \
          3D data and is shown for context only.",
-        sub = m.subsamples
+        sub = m.subsamples,
+        path = match m.maxpool {
+            fieldprobe_core::eval::occupancy::MaxPoolPath::Refined => "refined",
+            fieldprobe_core::eval::occupancy::MaxPoolPath::Dense => "dense",
+        }
     );
     mesh_table(&mut s, exp, m);
     if !gallery.is_empty() {

@@ -10,6 +10,7 @@ use anyhow::{Context, Result, bail};
 use burn::module::Module;
 use fieldprobe_backends::Selected;
 use fieldprobe_core::data::dataset::write_atomic;
+use fieldprobe_core::eval::occupancy::MaxPoolPath;
 use fieldprobe_core::field::{FieldModel, FieldModelConfig};
 use fieldprobe_core::train::{Components, TrainObject, Trainer, checkpoint, prepare_step};
 use serde::{Deserialize, Serialize};
@@ -64,9 +65,12 @@ pub struct Metrics {
     pub per_category: BTreeMap<String, CategoryMetrics>,
     pub split: String,
     pub resolution: usize,
-    /// Sub-grid points per voxel and axis of the max-pool protocol.
+    /// Lattice cells per voxel and axis of the max-pool protocol.
     #[serde(default)]
     pub subsamples: usize,
+    /// How fields were converted to voxels (`eval.maxpool`).
+    #[serde(default)]
+    pub maxpool: MaxPoolPath,
     pub steps: usize,
     pub train_seconds: f64,
     pub eval_seconds: f64,
@@ -264,6 +268,7 @@ pub fn evaluate_run(
         split: exp.data.eval_split.name().into(),
         resolution: exp.eval.resolution,
         subsamples: exp.eval.subsamples,
+        maxpool: exp.eval.maxpool,
         steps: training.steps,
         train_seconds: training.seconds,
         eval_seconds,

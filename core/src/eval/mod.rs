@@ -3,8 +3,8 @@
 //! over categories.
 //!
 //! A field becomes voxels the way the ground truth was made ([`occupancy`]): a voxel is occupied
-//! when φ reaches ½ anywhere inside it (max over an `S³` sub-grid), since NMR's ground truth marks
-//! every voxel the surface touches. φ read only at the voxel centres is kept as a secondary number
+//! when φ reaches ½ anywhere in its closed cell (max over the lattice points of its `S³` cells),
+//! since NMR's ground truth marks every voxel whose edges the surface crosses. φ read only at the voxel centres is kept as a secondary number
 //! (`centre_iou`): it is not dilated like the ground truth, so it caps a perfect field well below 1
 //! and pays over-sized fields.
 //!
@@ -30,7 +30,7 @@ use crate::field::FieldModel;
 use crate::geometry::{Camera, NUM_VIEWS, PixelPos};
 use crate::train::TrainObject;
 use glam::Vec3;
-use occupancy::FieldVoxels;
+use occupancy::{FieldVoxels, MaxPoolPath, VoxelProtocol};
 
 /// Points per decoder call when evaluating grids and renders (bounds memory).
 const CHUNK: usize = 16_384;
@@ -64,17 +64,16 @@ pub fn encode_views(model: &FieldModel, obj: &TrainObject, device: &Device) -> O
 }
 
 /// The voxels of one latent's field (none for a per-object field) in the max-pool protocol
-/// ([`occupancy::field_voxels`], `s³` sub-grid points per voxel), with the centre test beside
+/// ([`occupancy::field_voxels`] on `protocol`'s grid and lattice), with the centre test beside
 /// them. φ is read only inside the field's domain, as for meshes and renders.
 pub fn predict_voxels(
     model: &FieldModel,
     latent: Option<&Tensor<2>>,
-    res: usize,
-    s: usize,
+    protocol: &VoxelProtocol,
     device: &Device,
 ) -> FieldVoxels {
     let mut field = |p: &[f32]| in_domain(p, |inside| field_values(model, latent, inside, device));
-    occupancy::field_voxels(&mut field, res, s, OCCUPANCY_THRESHOLD)
+    occupancy::field_voxels(&mut field, protocol, OCCUPANCY_THRESHOLD)
 }
 
 /// [`predict_voxels`] of an object from its view latents ([`encode_views`]), one per input view
@@ -83,8 +82,7 @@ pub fn predict_all_views(
     model: &FieldModel,
     latents: Option<&Tensor<2>>,
     views: &[usize],
-    res: usize,
-    s: usize,
+    protocol: &VoxelProtocol,
     device: &Device,
 ) -> Vec<FieldVoxels> {
     match latents {
@@ -92,10 +90,10 @@ pub fn predict_all_views(
             .iter()
             .map(|&v| {
                 let z = latents.clone().narrow(0, v, 1);
-                predict_voxels(model, Some(&z), res, s, device)
+                predict_voxels(model, Some(&z), protocol, device)
             })
             .collect(),
-        None => vec![predict_voxels(model, None, res, s, device)],
+        None => vec![predict_voxels(model, None, protocol, device)],
     }
 }
 
@@ -163,9 +161,15 @@ pub fn hull_field(obj: &TrainObject) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
 }
 
 /// The 24-view visual hull of an object, converted to voxels like a predicted field
-/// ([`occupancy::field_voxels`] of [`hull_field`]).
-pub fn object_hull(obj: &TrainObject, res: usize, s: usize) -> FieldVoxels {
-    occupancy::field_voxels(&mut hull_field(obj), res, s, OCCUPANCY_THRESHOLD)
+/// ([`occupancy::field_voxels`] of [`hull_field`]). Always by the dense definition: the hull is a
+/// 0/1 indicator, on which the fast path's smoothness assumption does not hold, and projecting
+/// the whole lattice costs well under a second.
+pub fn object_hull(obj: &TrainObject, protocol: &VoxelProtocol) -> FieldVoxels {
+    let dense = VoxelProtocol {
+        path: MaxPoolPath::Dense,
+        ..*protocol
+    };
+    occupancy::field_voxels(&mut hull_field(obj), &dense, OCCUPANCY_THRESHOLD)
 }
 
 /// Per-voxel mean of `grids`, thresholded at ½.

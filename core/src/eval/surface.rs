@@ -166,6 +166,33 @@ impl NearestIndex {
         (i * self.dims[1] + j) * self.dims[2] + k
     }
 
+    /// Whether any point lies within `radius` of `q` (closed ball). Looks only at the cells that
+    /// the ball's bounding box overlaps, so a query far from every point costs nothing, unlike
+    /// [`Self::nearest`], whose search grows ring by ring until it meets a point.
+    pub fn within(&self, q: Vec3, radius: f32) -> bool {
+        let range = |a: usize| {
+            let lo = ((q[a] - radius - self.lo[a]) / self.cell).floor() as i64;
+            let hi = ((q[a] + radius - self.lo[a]) / self.cell).floor() as i64;
+            lo.max(0)..=hi.min(self.dims[a] as i64 - 1)
+        };
+        let r2 = radius * radius;
+        for i in range(0) {
+            for j in range(1) {
+                for k in range(2) {
+                    let b = ((i as usize * self.dims[1] + j as usize) * self.dims[2]) + k as usize;
+                    let bucket = &self.order[self.starts[b] as usize..self.starts[b + 1] as usize];
+                    if bucket
+                        .iter()
+                        .any(|&p| self.points[p as usize].distance_squared(q) <= r2)
+                    {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
     /// The index of the point nearest to `q` and its distance; `None` for an empty set.
     pub fn nearest(&self, q: Vec3) -> Option<(usize, f32)> {
         if self.points.is_empty() {

@@ -227,8 +227,9 @@ fn mise_matches_dense_with_far_fewer_points() {
     );
     eprintln!("MISE mesh identical to dense: {}", mise == full);
     assert_eq!(full_points, 129usize.pow(3));
+    // The coarse 65³ alone is an eighth of the dense 129³; the refined band adds a little.
     assert!(
-        mise_points * 10 < full_points,
+        mise_points * 5 < full_points,
         "MISE evaluated {mise_points} of {full_points}"
     );
     assert!(mise_points < dilated_points && dilated_points < full_points);
@@ -302,7 +303,7 @@ fn field_touching_the_unit_cube_gives_a_closed_box() {
 #[test]
 fn field_filling_everything_is_capped_at_the_sampled_cube() {
     let (m, points, _) = run(|_| 1.0, &ExtractOptions::default());
-    assert_eq!(points, 33usize.pow(3), "nothing to refine");
+    assert_eq!(points, 65usize.pow(3), "nothing to refine");
     assert_eq!(check_closed(&m), 2);
     let side = 1.0 + 1.0 / 31.0;
     assert!(rel(volume(&m), side * side * side).abs() < 1e-3);
@@ -315,8 +316,9 @@ fn empty_field_gives_an_empty_mesh() {
     for f in [|_: Vec3| 0.0, |_: Vec3| f32::NAN] {
         let (m, points, calls) = run(f, &ExtractOptions::default());
         assert!(m.vertices.is_empty() && m.faces.is_empty());
-        // Nothing straddles: the refinement levels have no points and make no calls.
-        assert_eq!((points, calls), (33usize.pow(3), 1));
+        // Nothing straddles: the refinement level has no points and makes no calls (the coarse
+        // 65³ takes two calls of at most 2^18 points).
+        assert_eq!((points, calls), (65usize.pow(3), 2));
     }
     let m = marching_cubes(&[], [0, 0, 0], Vec3::ZERO, Vec3::ONE, 0.5);
     assert!(m.faces.is_empty());

@@ -118,8 +118,15 @@ fn nearest_index_matches_brute_force() {
         let exact = brute_nearest(&points, q);
         assert!((d - exact).abs() < 1e-6, "{q}: {d} vs {exact}");
         assert!((points[i].distance(q) - d).abs() < 1e-6);
+        // The bounded query agrees with the distance, on both sides of it.
+        for radius in [0.01, 0.1, 0.5] {
+            if (exact - radius).abs() > 1e-5 {
+                assert_eq!(index.within(q, radius), exact <= radius, "{q} r={radius}");
+            }
+        }
     }
     assert!(NearestIndex::new(&[]).nearest(Vec3::ZERO).is_none());
+    assert!(!NearestIndex::new(&[]).within(Vec3::ZERO, 1.0));
     let one = NearestIndex::new(&[Vec3::ONE]);
     assert_eq!(one.nearest(Vec3::ZERO).unwrap().0, 0);
 }
