@@ -3,7 +3,8 @@
 //! * [`geometry`] — the NMR/SoftRas camera of the published data, pixels ↔ rays, projection.
 //! * [`data`] — meshes, silhouettes, the CPU rasterizer, voxelizations, the visual hull,
 //!   procedural shapes and the published dataset layouts (Kato's npz, DVR's folders).
-//! * [`field`] — the field models φ(z, p) (single-view encoder + decoder, per-object MLP).
+//! * [`field`] — the representation traits: [`field::Field`] (φ(z, p)), [`field::FieldModel`]
+//!   (trainable, checkpointable) and their TOML side; implementations live in `fieldprobe-models`.
 //! * [`probe`] — samplers, ray–anchor assignment, aggregation, training batches.
 //! * [`regularize`] — the regularizer trait; [`registry`] — pluggable components.
 //! * [`train`] — the training loop and checkpoints; [`eval`] — 3D IoU in the NMR protocol.

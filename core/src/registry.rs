@@ -10,6 +10,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ComponentKind {
+    /// `[model]`
+    Representation,
     /// `[probe.ray_sampler]`
     RaySampler,
     /// `[probe.anchor_sampler]`
@@ -24,6 +26,7 @@ impl ComponentKind {
     /// The TOML table a component of this kind is configured in.
     pub fn table(self) -> &'static str {
         match self {
+            ComponentKind::Representation => "model",
             ComponentKind::RaySampler => "probe.ray_sampler",
             ComponentKind::AnchorSampler => "probe.anchor_sampler",
             ComponentKind::Aggregator => "probe.aggregator",

@@ -4,25 +4,30 @@ use std::fmt::Debug;
 
 use burn::prelude::*;
 
-use crate::field::FieldModel;
+use crate::field::{Field, FieldModelConfig};
 
 /// φ for one batch (its latents fixed), queryable at arbitrary points — what a regularizer needs
 /// for finite differences around anchors.
 #[derive(Debug)]
 pub struct FieldQuery<'a> {
-    pub model: &'a FieldModel,
+    pub model: &'a dyn Field,
     pub latent: Option<Tensor<2>>,
 }
 
 impl FieldQuery<'_> {
     /// φ at `points` `[B, M, 3]` → `[B, M]`.
     pub fn eval(&self, points: Tensor<3>) -> Tensor<2> {
-        self.model.decode(self.latent.clone(), points)
+        self.model.occupancy(self.latent.clone(), points)
     }
 
     /// The logits of φ at `points` `[B, M, 3]` → `[B, M]` (`φ = sigmoid(logits)`).
     pub fn logits(&self, points: Tensor<3>) -> Tensor<2> {
-        self.model.decode_logits(self.latent.clone(), points)
+        self.model.logits(self.latent.clone(), points)
+    }
+
+    /// The signed distance at `points` `[B, M, 3]` → `[B, M]`, if the representation has one.
+    pub fn signed_distance(&self, points: Tensor<3>) -> Option<Tensor<2>> {
+        self.model.signed_distance(self.latent.clone(), points)
     }
 }
 
@@ -39,4 +44,11 @@ pub trait Regularizer: Send + Sync + Debug {
 #[typetag::serde(tag = "type")]
 pub trait RegularizerConfig: Send + Sync + Debug {
     fn build(&self) -> Result<Box<dyn Regularizer>, String>;
+
+    /// Whether this term can act on `model`'s representation (an eikonal term needs a signed
+    /// distance); checked when an experiment is loaded, so a mismatch is a config error, not a
+    /// failure mid-run. The error says what the term needs.
+    fn check_model(&self, _model: &dyn FieldModelConfig) -> Result<(), String> {
+        Ok(())
+    }
 }

@@ -74,7 +74,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         .components()
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.file.display()))?;
     let spec = exp.probe_spec();
-    let mut trainer = Trainer::new(&exp.model, &selected.device, exp.seed);
+    let mut trainer = Trainer::new(exp.model.as_ref(), &selected.device, exp.seed);
     let (mut step_s, mut probe_s, mut device_s) = (Vec::new(), Vec::new(), Vec::new());
     let (mut points, mut pairs, mut decided) = (0usize, 0usize, 0u64);
     for i in 0..args.warmup + args.steps {

@@ -65,7 +65,7 @@ pub fn run(args: Args) -> Result<()> {
         rd.state.step,
         out.display()
     );
-    let outcome = evaluate_run(&rd.exp, &model, &data, &out, &selected, &training)?;
+    let outcome = evaluate_run(&rd.exp, model.as_ref(), &data, &out, &selected, &training)?;
     println!("{}", outcome.report);
     println!("outputs: {}", out.display());
     Ok(())

@@ -16,7 +16,7 @@ use fieldprobe_core::eval::{
     encode_views, extract_field_mesh, mean_shape, object_hull, predict_all_views,
     render_field_silhouette,
 };
-use fieldprobe_core::field::FieldModel;
+use fieldprobe_core::field::Field;
 use fieldprobe_core::geometry::NUM_VIEWS;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -150,7 +150,7 @@ pub fn score_mesh(
 /// Evaluates `model` (in evaluation mode, on the plain `device`) on every category; `mesh_dir`
 /// is the dataset's `meshes/` folder (ground-truth meshes for the surface metrics), if any.
 pub fn evaluate(
-    model: &FieldModel,
+    model: &dyn Field,
     data: &[CategoryData],
     cfg: &EvalConfig,
     per_object_fit: bool,

@@ -12,7 +12,7 @@
 //! generate = { train = 48, val = 0, test = 8, seed = 0 }   # made on first run if missing
 //!
 //! [model]
-//! type = "single_view"       # or "per_object"
+//! type = "single_view"       # or "per_object", "sdf", any registered representation
 //!
 //! [probe]
 //! anchors = 2048
@@ -41,6 +41,7 @@ use fieldprobe_core::probe::{
 };
 use fieldprobe_core::regularize::RegularizerConfig;
 use fieldprobe_core::train::{Components, TrainSpec};
+use fieldprobe_models::SingleViewConfig;
 use fieldprobe_regularizers::NoRegularizer;
 use serde::{Deserialize, Serialize};
 
@@ -57,8 +58,9 @@ pub struct Experiment {
     #[serde(default)]
     pub backend: BackendChoice,
     pub data: DataConfig,
-    #[serde(default)]
-    pub model: FieldModelConfig,
+    /// `[model]`: the representation (default: the paper's single-view model).
+    #[serde(default = "single_view")]
+    pub model: Box<dyn FieldModelConfig>,
     pub probe: ProbeConfig,
     /// `[regularizer]` table; none by default.
     #[serde(default = "no_regularizer")]
@@ -66,6 +68,10 @@ pub struct Experiment {
     pub train: TrainSpec,
     #[serde(default)]
     pub eval: EvalConfig,
+}
+
+fn single_view() -> Box<dyn FieldModelConfig> {
+    Box::new(SingleViewConfig::default())
 }
 
 fn no_regularizer() -> Box<dyn RegularizerConfig> {
@@ -316,11 +322,16 @@ impl Experiment {
         e.extract
             .validate()
             .map_err(|err| format!("eval.extract: {err}"))?;
-        if matches!(self.model, FieldModelConfig::PerObject { .. }) && self.data.object.is_none() {
+        if !self.model.uses_image() && self.data.object.is_none() {
             return Err(
-                "a per_object model needs data.object (the index of the object to fit)".into(),
+                "a per-object model (one that reads no image) needs data.object (the index of \
+                 the object to fit)"
+                    .into(),
             );
         }
+        self.regularizer
+            .check_model(self.model.as_ref())
+            .map_err(|e| format!("regularizer: {e}"))?;
         self.components()?;
         Ok(())
     }

@@ -19,7 +19,7 @@ use anyhow::Result;
 use burn::prelude::*;
 use fieldprobe_core::data::dataset::write_atomic;
 use fieldprobe_core::eval::{encode_views, extract_field_mesh, render_field_silhouette};
-use fieldprobe_core::field::FieldModel;
+use fieldprobe_core::field::Field;
 use fieldprobe_core::geometry::NUM_VIEWS;
 
 use crate::data::CategoryData;
@@ -51,7 +51,7 @@ pub struct GalleryRow {
 /// `gallery_objects` is 0).
 pub fn write(
     dir: &Path,
-    model: &FieldModel,
+    model: &dyn Field,
     data: &[CategoryData],
     cfg: &EvalConfig,
     device: &Device,

@@ -39,6 +39,7 @@ use clap::{Parser, Subcommand};
 
 // The explicit plugin link list: typetag and the component registry only see crates that are
 // linked, so every plugin crate is named here, once.
+use fieldprobe_models as _;
 use fieldprobe_regularizers as _;
 use fieldprobe_samplers as _;
 
@@ -63,7 +64,8 @@ enum Command {
     Run(run::RunArgs),
     /// Time training steps of an experiment on its backend.
     Bench(bench::BenchArgs),
-    /// List the registered samplers, aggregators and regularizers with example TOML.
+    /// List the registered representations, samplers, aggregators and regularizers with example
+    /// TOML.
     List,
     /// Render meshes (procedural or .obj) into a dataset in Kato's npz layout (or DVR's).
     MakeDataset(make_dataset::Args),

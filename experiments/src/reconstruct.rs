@@ -186,7 +186,7 @@ pub fn run(args: Args) -> Result<()> {
         ),
         (false, None) => None,
     };
-    let mesh = extract_field_mesh(&model, latent.as_ref(), &extract, device);
+    let mesh = extract_field_mesh(model.as_ref(), latent.as_ref(), &extract, device);
     if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)
             .with_context(|| format!("cannot create {}", parent.display()))?;
@@ -210,7 +210,7 @@ pub fn run(args: Args) -> Result<()> {
         turntable.display()
     );
     if let Some(gt) = &args.gt_mesh {
-        let m = compare(&rd, &model, latent.as_ref(), &mesh, gt, device)?;
+        let m = compare(&rd, model.as_ref(), latent.as_ref(), &mesh, gt, device)?;
         let json = serde_json::to_string_pretty(&m)?;
         let path = sibling(&args.out, "_metrics.json");
         write_atomic(&path, |w| std::io::Write::write_all(w, json.as_bytes()))?;
@@ -235,7 +235,7 @@ pub fn run(args: Args) -> Result<()> {
 /// voxelization stands in for the dataset's voxels (it is how they were made).
 fn compare(
     rd: &RunDir,
-    model: &fieldprobe_core::field::FieldModel,
+    model: &dyn fieldprobe_core::field::Field,
     latent: Option<&Tensor<2>>,
     mesh: &TriMesh,
     gt: &Path,

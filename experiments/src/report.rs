@@ -145,7 +145,9 @@ fn mesh_table(s: &mut String, exp: &Experiment, m: &Metrics) {
          the max-pool IoU of the same predictions is beside it. Chamfer-L1 is shown ×10 as in \
          Occupancy Networks and DVR, with F-score at τ = {tau} and normal consistency, from \
          {pts} points per surface against the dataset's meshes (their outer surface).\n",
-        th = x.threshold,
+        th = x
+            .threshold
+            .map_or("the representation's level".to_string(), |t| t.to_string()),
         r = x.resolution,
         k = x.refinements,
         v = first.views,

@@ -7,11 +7,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use burn::module::Module;
 use fieldprobe_backends::Selected;
 use fieldprobe_core::data::dataset::write_atomic;
 use fieldprobe_core::eval::occupancy::MaxPoolPath;
-use fieldprobe_core::field::{FieldModel, FieldModelConfig};
+use fieldprobe_core::field::Field;
 use fieldprobe_core::train::{Components, TrainObject, Trainer, checkpoint, prepare_step};
 use serde::{Deserialize, Serialize};
 use tracing::info;
@@ -185,8 +184,8 @@ pub fn run_one(
         history: trainer.history.clone(),
         terms: trainer.terms.clone(),
     };
-    let model = trainer.model.valid();
-    evaluate_run(exp, &model, data, dir, &selected, &training)
+    let model = trainer.model.valid_model();
+    evaluate_run(exp, model.as_ref(), data, dir, &selected, &training)
 }
 
 /// What training left for the report.
@@ -230,14 +229,14 @@ fn write_input_spec(dir: &Path, data: &[CategoryData]) -> Result<()> {
 /// atomically, the report last).
 pub fn evaluate_run(
     exp: &Experiment,
-    model: &FieldModel,
+    model: &dyn Field,
     data: &[CategoryData],
     dir: &Path,
     selected: &Selected,
     training: &Training,
 ) -> Result<RunOutcome> {
     let t0 = Instant::now();
-    let per_object_fit = matches!(exp.model, FieldModelConfig::PerObject { .. });
+    let per_object_fit = !exp.model.uses_image();
     let mesh_dir = exp.data.dir.join("meshes");
     let mesh_dir = mesh_dir.is_dir().then_some(mesh_dir.as_path());
     info!("evaluating on the {} split", exp.data.eval_split.name());
@@ -304,11 +303,11 @@ fn train(
     resume: bool,
 ) -> Result<(Trainer, f64)> {
     let mut trainer = if resume {
-        let t = checkpoint::load(&exp.model, device, ckpt)?;
+        let t = checkpoint::load(exp.model.as_ref(), device, ckpt)?;
         info!("resumed from {} at step {}", ckpt.display(), t.step);
         t
     } else {
-        Trainer::new(&exp.model, device, exp.seed)
+        Trainer::new(exp.model.as_ref(), device, exp.seed)
     };
     let objects = pool(data);
     let spec = exp.probe_spec();

@@ -52,9 +52,9 @@ impl RunDir {
     }
 
     /// The model of the latest checkpoint, on `device`, in evaluation mode.
-    pub fn model(&self, device: &Device) -> Result<FieldModel> {
+    pub fn model(&self, device: &Device) -> Result<Box<dyn FieldModel>> {
         Ok(checkpoint::load_model(
-            &self.exp.model,
+            self.exp.model.as_ref(),
             device,
             &self.dir.join("checkpoints"),
         )?)

@@ -466,7 +466,10 @@ regularizer = { type = "none" }
             assert_eq!(x.name, format!("abl-{}", e.slug));
             assert_eq!(x.seed, 3);
             assert_eq!(x.data, base.data);
-            assert_eq!(x.model, base.model);
+            assert_eq!(
+                serde_json::to_string(&x.model).unwrap(),
+                serde_json::to_string(&base.model).unwrap()
+            );
             assert_eq!(x.train, base.train);
             assert_eq!(x.eval, base.eval);
             assert_eq!(x.probe.anchors, 256);

@@ -142,7 +142,7 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
             let x = &v.experiment;
             // Everything a variant does not override is the base's.
             assert_eq!(x.data, base.data);
-            assert_eq!(x.model, base.model);
+            assert_eq!(json(&x.model), json(&base.model));
             assert_eq!(x.train, base.train);
             assert_eq!(x.eval, base.eval);
             assert_eq!(x.seed, base.seed);

@@ -56,3 +56,56 @@ fn the_main_command_and_paper_toml_run_the_full_method() {
         "paper.toml evaluates in the max-pool protocol"
     );
 }
+
+/// Every experiment file shipped under `experiments/` loads and validates (a plain file, or every
+/// variant of an ablation file), so a renamed key or component breaks a test, not a user's run.
+#[test]
+fn every_shipped_experiment_file_loads() {
+    use experiments::variants::{AblationFile, has_variants};
+    fn walk(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() && !p.ends_with("src") && !p.ends_with("tests") {
+                walk(&p, out);
+            } else if p.extension().is_some_and(|x| x == "toml") && !p.ends_with("Cargo.toml") {
+                out.push(p);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(root(), &mut files);
+    assert!(files.len() >= 10, "{files:?}");
+    for f in &files {
+        if has_variants(f) {
+            let a = AblationFile::load(f).unwrap_or_else(|e| panic!("{e:#}"));
+            assert!(a.entries.len() > 1, "{}", f.display());
+        } else {
+            load_experiment(f).unwrap_or_else(|e| panic!("{e:#}"));
+        }
+    }
+    // The SDF presets pair the signed-distance representation with the eikonal term.
+    let sdf = load_experiment(&root().join("sdf/single-view.toml")).unwrap();
+    let t = resolved(&sdf);
+    assert_eq!(get(&t, &["model", "type"]).as_str(), Some("sdf"));
+    assert_eq!(get(&t, &["regularizer", "type"]).as_str(), Some("eikonal"));
+}
+
+/// The eikonal term on an occupancy network is a config error that says what it needs.
+#[test]
+fn eikonal_without_a_signed_distance_is_rejected_on_load() {
+    let text = std::fs::read_to_string(root().join("sdf/single-view.toml"))
+        .unwrap()
+        .replace("type = \"sdf\"", "type = \"single_view\"")
+        .replace("beta = 0.02\n", "")
+        .replace("sphere = 0.3\n", "");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("occupancy-eikonal.toml");
+    std::fs::write(&path, text).unwrap();
+    let e = format!("{:#}", load_experiment(&path).unwrap_err());
+    assert!(
+        e.contains("occupancy-eikonal.toml")
+            && e.contains("regularizer")
+            && e.contains("signed distance"),
+        "{e}"
+    );
+}

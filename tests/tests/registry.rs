@@ -1,16 +1,25 @@
 //! Every registered component deserializes from its example TOML block and builds, and the
 //! configs reject misspelled keys and unknown types.
 
+use fieldprobe_core::field::FieldModelConfig;
 use fieldprobe_core::probe::{AggregatorConfig, AnchorSamplerConfig, RaySamplerConfig};
 use fieldprobe_core::registry::{ComponentKind, components};
 use fieldprobe_core::regularize::RegularizerConfig;
 // The link list: registration only sees crates that are linked.
+use fieldprobe_models as _;
 use fieldprobe_regularizers as _;
 use fieldprobe_samplers as _;
 
 fn build(kind: ComponentKind, text: &str) -> Result<(), String> {
     let e = |e: toml::de::Error| e.to_string();
     match kind {
+        ComponentKind::Representation => {
+            let config = toml::from_str::<Box<dyn FieldModelConfig>>(text).map_err(e)?;
+            config.validate()?;
+            let model = config.init(&burn::prelude::Device::flex());
+            assert!(model.parameters() > 0);
+            Ok(())
+        }
         ComponentKind::RaySampler => toml::from_str::<Box<dyn RaySamplerConfig>>(text)
             .map_err(e)?
             .build()
@@ -39,6 +48,9 @@ fn every_registered_component_builds_from_its_example() {
         (ComponentKind::RaySampler, "normal"),
         (ComponentKind::AnchorSampler, "uniform"),
         (ComponentKind::AnchorSampler, "normal"),
+        (ComponentKind::Representation, "single_view"),
+        (ComponentKind::Representation, "per_object"),
+        (ComponentKind::Representation, "sdf"),
         (ComponentKind::Aggregator, "max"),
         (ComponentKind::Regularizer, "none"),
     ] {

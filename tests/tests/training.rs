@@ -10,12 +10,16 @@ use fieldprobe_core::data::dataset::{ObjectRecord, ObjectSet, Split};
 use fieldprobe_core::data::procedural::{generate, object_rng};
 use fieldprobe_core::data::render::RenderOptions;
 use fieldprobe_core::data::voxelize::Voxelizer;
-use fieldprobe_core::field::{DecoderConfig, EncoderConfig, FieldModelConfig};
+use fieldprobe_core::field::FieldModelConfig;
 use fieldprobe_core::probe::{AssignmentPolicy, MaxPool, ObjectProbe, ProbeBatch, ProbeSpec};
 use fieldprobe_core::train::{
     Components, PreparedStep, TrainError, TrainObject, Trainer, checkpoint, prepare_step,
     probe_loss, step_rng,
 };
+use fieldprobe_models::{
+    DecoderConfig, EncoderConfig, PerObjectConfig, SdfConfig, SingleViewConfig,
+};
+use fieldprobe_regularizers::Eikonal;
 use fieldprobe_samplers::{UniformAnchors, UniformRays};
 
 /// burn's flex RNG is process-wide: tests that seed it must not interleave.
@@ -42,8 +46,8 @@ fn objects(n: usize) -> Vec<TrainObject> {
 
 /// A small per-object field: learns one object in tens of steps, so "the loss falls" is quick to
 /// check through the whole probing pipeline.
-fn per_object() -> FieldModelConfig {
-    FieldModelConfig::PerObject {
+fn per_object() -> PerObjectConfig {
+    PerObjectConfig {
         decoder: DecoderConfig {
             hidden: vec![64, 64],
             frequencies: 3,
@@ -52,8 +56,8 @@ fn per_object() -> FieldModelConfig {
 }
 
 /// A small single-view model (encoder with batch norm + decoder).
-fn model() -> FieldModelConfig {
-    FieldModelConfig::SingleView {
+fn model() -> SingleViewConfig {
+    SingleViewConfig {
         latent: 16,
         encoder: EncoderConfig {
             channels: vec![8, 16],
@@ -85,17 +89,26 @@ const SPEC: ProbeSpec = ProbeSpec {
 };
 
 fn train(
-    config: &FieldModelConfig,
+    config: &dyn FieldModelConfig,
+    device: &Device,
+    data: &[TrainObject],
+    steps: usize,
+) -> Vec<f32> {
+    train_with(config, &comps(), device, data, steps)
+}
+
+fn train_with(
+    config: &dyn FieldModelConfig,
+    c: &Components,
     device: &Device,
     data: &[TrainObject],
     steps: usize,
 ) -> Vec<f32> {
     let mut t = Trainer::new(config, device, 5);
-    let c = comps();
     let images = config.uses_image();
     (0..steps)
         .map(|s| {
-            t.step(&prepare_step(data, &c, &SPEC, 2, images, 5, s), &c, 3e-3)
+            t.step(&prepare_step(data, c, &SPEC, 2, images, 5, s), c, 3e-3)
                 .unwrap()
                 .loss
         })
@@ -131,6 +144,45 @@ fn flex_training_lowers_the_loss_and_is_reproducible() {
         train(&model(), &dev, &objects(2), 10),
         "single-view: same seed, same losses"
     );
+}
+
+/// The signed-distance representation, added through the `FieldModel` trait alone, trains from
+/// silhouettes on the same probing loss, with the eikonal term beside it; its checkpoint (β
+/// included) restores exactly.
+#[test]
+fn sdf_with_the_eikonal_term_learns_from_silhouettes() {
+    let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
+    let data = objects(1);
+    let dev = BackendChoice::Flex.select().device;
+    let sdf = SdfConfig {
+        latent: 0,
+        decoder: Some(DecoderConfig {
+            hidden: vec![64, 64],
+            frequencies: 3,
+        }),
+        beta: 0.05,
+        ..SdfConfig::default()
+    };
+    let c = Components {
+        regularizer: Some(Box::new(Eikonal::default())),
+        ..comps()
+    };
+    let losses = train_with(&sdf, &c, &dev, &data, 60);
+    assert!(losses.iter().all(|l| l.is_finite()));
+    falls(&losses);
+
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = Trainer::new(&sdf, &dev, 2);
+    for s in 0..3 {
+        t.step(&prepare_step(&data, &c, &SPEC, 1, false, 2, s), &c, 1e-2)
+            .unwrap();
+    }
+    checkpoint::save(&t, dir.path()).unwrap();
+    let mut back = checkpoint::load(&sdf, &dev, dir.path()).unwrap();
+    let next = prepare_step(&data, &c, &SPEC, 1, false, 2, 3);
+    let a = t.step(&next, &c, 1e-2).unwrap().loss;
+    let b = back.step(&next, &c, 1e-2).unwrap().loss;
+    assert!((a - b).abs() <= 1e-6 * a.abs().max(1.0), "{a} vs {b}");
 }
 
 #[test]
@@ -227,7 +279,7 @@ fn compacted_batches_give_the_same_loss_as_full_ones() {
             images: Some((images.clone(), data[0].image_size)),
             probe_seconds: 0.0,
         };
-        let (_, sil, _) = probe_loss(&t.model, &prepared, &c, &t.device);
+        let (_, sil, _) = probe_loss(t.model.as_ref(), &prepared, &c, &t.device);
         (sil.into_scalar::<f32>(), prepared.batch)
     };
     let (full, full_batch) = loss(false);

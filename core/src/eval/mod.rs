@@ -26,7 +26,7 @@ use burn::prelude::*;
 use crate::data::hull::projects_inside;
 use crate::data::{Silhouette, TriMesh, VoxelGrid};
 use crate::extract::{ExtractOptions, extract_mesh};
-use crate::field::FieldModel;
+use crate::field::Field;
 use crate::geometry::{Camera, NUM_VIEWS, PixelPos};
 use crate::train::TrainObject;
 use glam::Vec3;
@@ -38,7 +38,7 @@ const CHUNK: usize = 16_384;
 /// φ at `points` (`[M·3]`) for one latent (`[1, Z]` or none), in chunks; `model` should be in
 /// evaluation mode (`valid()`), on `device`.
 pub fn field_values(
-    model: &FieldModel,
+    model: &dyn Field,
     latent: Option<&Tensor<2>>,
     points: &[f32],
     device: &Device,
@@ -47,14 +47,14 @@ pub fn field_values(
     for chunk in points.chunks(CHUNK * 3) {
         let m = chunk.len() / 3;
         let p = Tensor::<3>::from_data(TensorData::new(chunk.to_vec(), [1, m, 3]), device);
-        let v = model.decode(latent.cloned(), p);
+        let v = model.occupancy(latent.cloned(), p);
         out.extend(v.try_into_vec_as::<f32>().expect("f32 field values"));
     }
     out
 }
 
 /// Latents `[24, Z]` of all views of an object (none for a per-object field).
-pub fn encode_views(model: &FieldModel, obj: &TrainObject, device: &Device) -> Option<Tensor<2>> {
+pub fn encode_views(model: &dyn Field, obj: &TrainObject, device: &Device) -> Option<Tensor<2>> {
     let s = obj.image_size;
     let px: Vec<f32> = (0..NUM_VIEWS).flat_map(|v| obj.view(v)).collect();
     model.encode(Tensor::<4>::from_data(
@@ -67,19 +67,19 @@ pub fn encode_views(model: &FieldModel, obj: &TrainObject, device: &Device) -> O
 /// ([`occupancy::field_voxels`] on `protocol`'s grid and lattice), with the centre test beside
 /// them. φ is read only inside the field's domain, as for meshes and renders.
 pub fn predict_voxels(
-    model: &FieldModel,
+    model: &dyn Field,
     latent: Option<&Tensor<2>>,
     protocol: &VoxelProtocol,
     device: &Device,
 ) -> FieldVoxels {
     let mut field = |p: &[f32]| in_domain(p, |inside| field_values(model, latent, inside, device));
-    occupancy::field_voxels(&mut field, protocol, OCCUPANCY_THRESHOLD)
+    occupancy::field_voxels(&mut field, protocol, model.level())
 }
 
 /// [`predict_voxels`] of an object from its view latents ([`encode_views`]), one per input view
 /// in `views` (a single one for a per-object field, which has no latents).
 pub fn predict_all_views(
-    model: &FieldModel,
+    model: &dyn Field,
     latents: Option<&Tensor<2>>,
     views: &[usize],
     protocol: &VoxelProtocol,
@@ -97,23 +97,28 @@ pub fn predict_all_views(
     }
 }
 
-/// φ's level that separates inside from outside (the occupancy network's ½).
-pub const OCCUPANCY_THRESHOLD: f32 = 0.5;
+/// The level of a 0/1 indicator field (the visual hull, exact occupancies): any value in (0, 1]
+/// separates its two values; ½ by convention. A model's level is its [`Field::level`].
+pub const INDICATOR_LEVEL: f32 = 0.5;
 
-/// The surface `φ = threshold` of a model's field for one latent (none for a per-object field),
+/// The surface `φ = opts.threshold` of a model's field for one latent (none for a per-object field),
 /// by MISE + marching cubes ([`crate::extract`]). As in [`render_silhouette`], φ is read only
 /// inside the field's domain `[-FIELD_HALF_EXTENT, FIELD_HALF_EXTENT]³` and is 0 outside it
 /// (never trained there): a shape that fills its domain up to a face is then capped on that face
 /// instead of running into the sampled cube's border, where NMR's voxelization would miss it.
 pub fn extract_field_mesh(
-    model: &FieldModel,
+    model: &dyn Field,
     latent: Option<&Tensor<2>>,
     opts: &ExtractOptions,
     device: &Device,
 ) -> TriMesh {
+    let opts = ExtractOptions {
+        threshold: Some(opts.threshold.unwrap_or(model.level())),
+        ..opts.clone()
+    };
     extract_mesh(
         &mut |points| in_domain(points, |inside| field_values(model, latent, inside, device)),
-        opts,
+        &opts,
     )
 }
 
@@ -169,7 +174,7 @@ pub fn object_hull(obj: &TrainObject, protocol: &VoxelProtocol) -> FieldVoxels {
         path: MaxPoolPath::Dense,
         ..*protocol
     };
-    occupancy::field_voxels(&mut hull_field(obj), &dense, OCCUPANCY_THRESHOLD)
+    occupancy::field_voxels(&mut hull_field(obj), &dense, INDICATOR_LEVEL)
 }
 
 /// Per-voxel mean of `grids`, thresholded at ½.
@@ -194,11 +199,12 @@ pub const FIELD_HALF_EXTENT: f32 = 0.5;
 
 /// The silhouette of a field seen by `camera`: a pixel is covered when the maximum of φ over
 /// `samples` evenly spaced points of its ray inside the field's domain (the cube
-/// `[-FIELD_HALF_EXTENT, FIELD_HALF_EXTENT]³`) is at least ½ — the dense version of the
+/// `[-FIELD_HALF_EXTENT, FIELD_HALF_EXTENT]³`) is at least `level` — the dense version of the
 /// max-pool probe. `field` maps points `[M·3]` to φ `[M]`; a ray that misses the cube is empty.
 pub fn render_silhouette(
     camera: &Camera,
     samples: usize,
+    level: f32,
     field: impl FnOnce(&[f32]) -> Vec<f32>,
 ) -> Silhouette {
     let s = camera.image_size;
@@ -223,7 +229,7 @@ pub fn render_silhouette(
     let values = field(&points);
     let mut out = Silhouette::empty(s);
     for (&pixel, ray_values) in hit.iter().zip(values.chunks(samples)) {
-        if ray_values.iter().any(|&v| v >= 0.5) {
+        if ray_values.iter().any(|&v| v >= level) {
             out.data[pixel] = 1.0;
         }
     }
@@ -232,13 +238,13 @@ pub fn render_silhouette(
 
 /// [`render_silhouette`] of a model's field (one latent, or none for a per-object field).
 pub fn render_field_silhouette(
-    model: &FieldModel,
+    model: &dyn Field,
     latent: Option<&Tensor<2>>,
     camera: &Camera,
     samples: usize,
     device: &Device,
 ) -> Silhouette {
-    render_silhouette(camera, samples, |points| {
+    render_silhouette(camera, samples, model.level(), |points| {
         field_values(model, latent, points, device)
     })
 }
@@ -261,7 +267,7 @@ mod tests {
         let r = 0.3;
         for view in [0, 5, 13] {
             let cam = Camera::nmr(view);
-            let rendered = render_silhouette(&cam, 96, ball(r));
+            let rendered = render_silhouette(&cam, 96, INDICATOR_LEVEL, ball(r));
             let mut exact = Silhouette::empty(cam.image_size);
             for row in 0..cam.image_size {
                 for col in 0..cam.image_size {
@@ -318,12 +324,12 @@ mod tests {
                 })
                 .collect()
         };
-        let sil = render_silhouette(&Camera::nmr(3), 64, outside);
+        let sil = render_silhouette(&Camera::nmr(3), 64, INDICATOR_LEVEL, outside);
         assert!(sil.data.iter().all(|&v| v == 0.0));
         // The whole cube is occupied: its projection is covered, and the corners of the image
         // (outside the cube's projection) are not.
         let full = |p: &[f32]| vec![1.0; p.len() / 3];
-        let sil = render_silhouette(&Camera::nmr(0), 8, full);
+        let sil = render_silhouette(&Camera::nmr(0), 8, INDICATOR_LEVEL, full);
         let covered = sil.data.iter().filter(|&&v| v > 0.5).count();
         assert!(covered > 0 && covered < sil.data.len());
         assert_eq!(sil.data[0], 0.0);

@@ -29,7 +29,7 @@ pub(super) fn sample(
     let mut values = vec![f32::NAN; np * np * np];
     let mut state = vec![UNKNOWN; np * np * np];
     let mut evaluated = Vec::with_capacity(levels + 1);
-    let t = opts.threshold;
+    let t = opts.level();
 
     let mut evaluate = |queue: &[usize], values: &mut [f32], state: &mut [u8]| {
         let mut coords = Vec::with_capacity(queue.len().min(opts.batch_size) * 3);

@@ -90,8 +90,11 @@ pub struct ExtractOptions {
     /// Number of MISE refinements, each halving the cell size (default 1). 0 is dense marching
     /// cubes at `resolution`.
     pub refinements: usize,
-    /// Iso-level: a point is inside iff `φ ≥ threshold` (default ½).
-    pub threshold: f32,
+    /// Iso-level: a point is inside iff `φ ≥ threshold`. Unset (the default) means the field's
+    /// own level: a model's [`Field::level`](crate::field::Field::level) when extracting a
+    /// model's field, ½ for a plain closure.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub threshold: Option<f32>,
     /// The sampled cube is `[-0.5 − padding, 0.5 + padding]³` (default `0.5/31`, see the module
     /// docs).
     pub padding: f32,
@@ -107,7 +110,7 @@ impl Default for ExtractOptions {
         Self {
             resolution: 64,
             refinements: 1,
-            threshold: 0.5,
+            threshold: None,
             padding: 0.5 / 31.0,
             refine_neighbours: false,
             batch_size: 1 << 18,
@@ -116,6 +119,11 @@ impl Default for ExtractOptions {
 }
 
 impl ExtractOptions {
+    /// The iso-level used: `threshold`, or ½ when unset.
+    pub fn level(&self) -> f32 {
+        self.threshold.unwrap_or(0.5)
+    }
+
     /// Cells per axis of the finest grid, `resolution · 2^refinements`.
     pub fn fine_resolution(&self) -> usize {
         self.resolution << self.refinements
@@ -138,8 +146,10 @@ impl ExtractOptions {
                 self.resolution, self.refinements, MAX_FINE_RESOLUTION
             ));
         }
-        if !self.threshold.is_finite() {
-            return bad(format!("threshold {} is not finite", self.threshold));
+        if let Some(t) = self.threshold
+            && !t.is_finite()
+        {
+            return bad(format!("threshold {t} is not finite"));
         }
         if !(self.padding.is_finite() && self.padding > -0.5) {
             return bad(format!(
@@ -203,7 +213,7 @@ pub fn extract_mesh_with_stats(
         [np; 3],
         Vec3::splat(lo as f32),
         Vec3::splat(h as f32),
-        opts.threshold,
+        opts.level(),
     );
     (mesh, samples.stats)
 }

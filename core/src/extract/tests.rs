@@ -401,7 +401,7 @@ fn options_are_validated() {
             ..ok.clone()
         },
         ExtractOptions {
-            threshold: f32::NAN,
+            threshold: Some(f32::NAN),
             ..ok.clone()
         },
         ExtractOptions {

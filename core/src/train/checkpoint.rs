@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::Trainer;
 use crate::data::dataset::write_atomic;
-use crate::field::FieldModelConfig;
+use crate::field::{FieldModel, FieldModelConfig};
 use crate::{Error, Result};
 
 /// What `latest.json` records.
@@ -40,8 +40,7 @@ pub fn save(trainer: &Trainer, dir: &Path) -> Result<()> {
     let model_path = sub.join("model.bpk");
     trainer
         .model
-        .clone()
-        .save_file(&model_path)
+        .save_weights(&model_path)
         .map_err(|e| record_error(&model_path, e))?;
     let optim_path = sub.join("optim.bpk");
     trainer
@@ -90,7 +89,7 @@ pub fn latest(dir: &Path) -> Result<Option<CheckpointState>> {
 }
 
 /// Restores a trainer from the latest checkpoint under `dir`.
-pub fn load(config: &FieldModelConfig, device: &Device, dir: &Path) -> Result<Trainer> {
+pub fn load(config: &dyn FieldModelConfig, device: &Device, dir: &Path) -> Result<Trainer> {
     let state = latest(dir)?.ok_or_else(|| {
         Error::io(
             dir.join(LATEST),
@@ -100,9 +99,9 @@ pub fn load(config: &FieldModelConfig, device: &Device, dir: &Path) -> Result<Tr
     let device = device.clone().autodiff();
     let sub = dir.join(&state.dir);
     let model_path = sub.join("model.bpk");
-    let model = config
-        .init(&device)
-        .try_load_file(&model_path)
+    let mut model = config.init(&device);
+    model
+        .load_weights(&model_path)
         .map_err(|e| record_error(&model_path, e))?;
     let optim_path = sub.join("optim.bpk");
     let optim = AdamConfig::new()
@@ -121,10 +120,10 @@ pub fn load(config: &FieldModelConfig, device: &Device, dir: &Path) -> Result<Tr
 
 /// Loads just the model weights of the latest checkpoint (for evaluation), on `device`.
 pub fn load_model(
-    config: &FieldModelConfig,
+    config: &dyn FieldModelConfig,
     device: &Device,
     dir: &Path,
-) -> Result<crate::field::FieldModel> {
+) -> Result<Box<dyn FieldModel>> {
     let state = latest(dir)?.ok_or_else(|| {
         Error::io(
             dir.join(LATEST),
@@ -132,8 +131,9 @@ pub fn load_model(
         )
     })?;
     let model_path = dir.join(&state.dir).join("model.bpk");
-    config
-        .init(device)
-        .try_load_file(&model_path)
-        .map_err(|e| record_error(&model_path, e))
+    let mut model = config.init(device);
+    model
+        .load_weights(&model_path)
+        .map_err(|e| record_error(&model_path, e))?;
+    Ok(model)
 }

@@ -18,7 +18,7 @@ pub mod checkpoint;
 
 use std::time::Instant;
 
-use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::optim::{AdamConfig, ModuleOptimizer};
 use burn::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::data::dataset::ObjectSet;
-use crate::field::{FieldModel, FieldModelConfig};
+use crate::field::{Field, FieldModel, FieldModelConfig};
 use crate::geometry::NUM_VIEWS;
 use crate::probe::{
     Aggregator, AnchorSampler, ObjectProbe, ProbeBatch, ProbeSpec, RaySampler, Supervision,
@@ -239,7 +239,7 @@ pub fn prepare_step(
 
 /// The loss of one prepared step: `(total, silhouette, regularizer)`.
 pub fn probe_loss(
-    model: &FieldModel,
+    model: &dyn Field,
     prepared: &PreparedStep,
     comps: &Components,
     device: &Device,
@@ -251,7 +251,7 @@ pub fn probe_loss(
         model.encode(images)
     });
     let anchors = Tensor::<3>::from_data(TensorData::new(b.anchors.clone(), [nb, n, 3]), device);
-    let phi = model.decode(latent.clone(), anchors.clone());
+    let phi = model.occupancy(latent.clone(), anchors.clone());
     let flat = Tensor::cat(
         vec![phi.clone().reshape([nb * n]), Tensor::zeros([1], device)],
         0,
@@ -284,7 +284,7 @@ pub fn probe_loss(
 
 /// A model with its optimizer and position in training.
 pub struct Trainer {
-    pub model: FieldModel,
+    pub model: Box<dyn FieldModel>,
     pub optim: ModuleOptimizer,
     /// The autodiff device.
     pub device: Device,
@@ -308,7 +308,7 @@ impl std::fmt::Debug for Trainer {
 impl Trainer {
     /// A fresh model on `device` (made autodiff), its weights drawn from the device RNG seeded
     /// with `seed`.
-    pub fn new(config: &FieldModelConfig, device: &Device, seed: u64) -> Self {
+    pub fn new(config: &dyn FieldModelConfig, device: &Device, seed: u64) -> Self {
         let device = device.clone().autodiff();
         device.seed(seed);
         Self {
@@ -329,7 +329,7 @@ impl Trainer {
         lr: f64,
     ) -> Result<StepStats, TrainError> {
         let t0 = Instant::now();
-        let (total, sil, reg) = probe_loss(&self.model, prepared, comps, &self.device);
+        let (total, sil, reg) = probe_loss(self.model.as_ref(), prepared, comps, &self.device);
         let grads = total.backward();
         let loss: f32 = total.into_scalar();
         let sil: f32 = sil.into_scalar();
@@ -342,8 +342,7 @@ impl Trainer {
                 reg,
             });
         }
-        let grads = GradientsParams::from_grads(grads, &self.model);
-        self.model = self.optim.step(lr, self.model.clone(), grads);
+        self.model.optimize(&mut self.optim, lr, grads);
         let _ = self.device.sync();
         self.step += 1;
         let b = &prepared.batch;

@@ -4,8 +4,9 @@ use std::time::Instant;
 use burn::module::{Module, ModuleVisitor, Param};
 use burn::tensor::Gradients;
 use burn::tensor::activation::sigmoid;
-use fieldprobe_core::field::{DecoderConfig, EncoderConfig, FieldModel, FieldModelConfig};
+use fieldprobe_core::field::{Field, FieldModelConfig};
 use fieldprobe_core::probe::{Aggregator, MaxPool};
+use fieldprobe_models::{DecoderConfig, EncoderConfig, PerObjectConfig, SingleViewConfig};
 
 use super::*;
 
@@ -336,7 +337,7 @@ fn tensor_loss_matches_the_reference_on_analytic_fields() {
 
 /// Per-object φ through the model, one point at a time, for the reference.
 fn model_fn<'a>(
-    model: &'a FieldModel,
+    model: &'a dyn Field,
     latent: Option<Tensor<2>>,
     device: &'a Device,
 ) -> impl Fn(Vec3) -> f64 + 'a {
@@ -345,7 +346,7 @@ fn model_fn<'a>(
 
 /// The differenced function of a model at one point: φ or its logit.
 fn model_level<'a>(
-    model: &'a FieldModel,
+    model: &'a dyn Field,
     latent: Option<Tensor<2>>,
     device: &'a Device,
     differences: Differences,
@@ -356,8 +357,8 @@ fn model_level<'a>(
             device,
         );
         let v = match differences {
-            Differences::Logit => model.decode_logits(latent.clone(), t),
-            Differences::Occupancy => model.decode(latent.clone(), t),
+            Differences::Logit => model.logits(latent.clone(), t),
+            Differences::Occupancy => model.occupancy(latent.clone(), t),
         };
         v.into_scalar::<f32>() as f64
     }
@@ -395,7 +396,7 @@ fn clear_epsilon(fs: &[&dyn Fn(Vec3) -> f64], anchors: &[Vec<Vec3>], delta: f64)
     (best as f32, margin)
 }
 
-fn check_model(config: &FieldModelConfig, latent_size: usize) {
+fn check_model(config: &dyn FieldModelConfig, latent_size: usize) {
     let dev = Device::flex();
     let model = {
         let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
@@ -414,14 +415,16 @@ fn check_model(config: &FieldModelConfig, latent_size: usize) {
         Tensor::<2>::from_data(TensorData::new(z, [b, latent_size]), &dev)
     });
     let row = |o: usize| latent.clone().map(|z| z.narrow(0, o, 1));
-    let fs: Vec<_> = (0..b).map(|o| model_fn(&model, row(o), &dev)).collect();
+    let fs: Vec<_> = (0..b)
+        .map(|o| model_fn(model.as_ref(), row(o), &dev))
+        .collect();
     let dyn_fs: Vec<&dyn Fn(Vec3) -> f64> = fs.iter().map(|f| f as &dyn Fn(Vec3) -> f64).collect();
     for delta in [0.03f32, 0.1] {
         let (epsilon, margin) = clear_epsilon(&dyn_fs, &anchors, delta as f64);
         assert!(margin > 2e-6, "no clear ε: margin {margin}");
         let a = points(&anchors, &dev);
         let field = FieldQuery {
-            model: &model,
+            model: model.as_ref(),
             latent: latent.clone(),
         };
         for (p, differences) in [
@@ -441,7 +444,7 @@ fn check_model(config: &FieldModelConfig, latent_size: usize) {
             let got = scalar(cfg.loss(&field, &a).expect("anchors pass"));
             let want = (0..b)
                 .map(|o| {
-                    let level = model_level(&model, row(o), &dev, differences);
+                    let level = model_level(model.as_ref(), row(o), &dev, differences);
                     reference_loss(&cfg, level, &anchors[o])
                 })
                 .sum::<f64>()
@@ -457,7 +460,7 @@ fn check_model(config: &FieldModelConfig, latent_size: usize) {
 #[test]
 fn tensor_loss_matches_the_reference_on_a_per_object_field_model() {
     check_model(
-        &FieldModelConfig::PerObject {
+        &PerObjectConfig {
             decoder: DecoderConfig {
                 hidden: vec![32, 32],
                 frequencies: 2,
@@ -471,7 +474,7 @@ fn tensor_loss_matches_the_reference_on_a_per_object_field_model() {
 fn tensor_loss_matches_the_reference_on_a_latent_conditioned_field_model() {
     // Each object's stencil must be decoded with its own latent.
     check_model(
-        &FieldModelConfig::SingleView {
+        &SingleViewConfig {
             latent: 8,
             encoder: EncoderConfig {
                 channels: vec![4],
@@ -624,7 +627,7 @@ impl ModuleVisitor for GradStats<'_> {
 #[test]
 fn gradients_reach_every_parameter_and_are_finite() {
     let dev = Device::flex().autodiff();
-    let config = FieldModelConfig::PerObject {
+    let config = PerObjectConfig {
         decoder: DecoderConfig {
             hidden: vec![32, 32],
             frequencies: 2,
@@ -633,7 +636,10 @@ fn gradients_reach_every_parameter_and_are_finite() {
     let model = {
         let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
         dev.seed(3);
-        config.init(&dev)
+        // The concrete module, whose parameters the test visits.
+        fieldprobe_models::PerObject {
+            decoder: config.decoder.init(0, &dev),
+        }
     };
     let mut rng = Lcg(2);
     let anchors: Vec<Vec3> = (0..256).map(|_| rng.point(0.45)).collect();
@@ -672,7 +678,7 @@ fn gradients_reach_every_parameter_and_are_finite() {
 #[ignore = "timing, prints numbers"]
 fn cost_of_the_regularizer_against_a_silhouette_step() {
     let dev = Device::flex().autodiff();
-    let config = FieldModelConfig::PerObject {
+    let config = PerObjectConfig {
         decoder: DecoderConfig {
             hidden: vec![256, 256, 128],
             frequencies: 5,
@@ -695,7 +701,7 @@ fn cost_of_the_regularizer_against_a_silhouette_step() {
         .collect();
     let a = points(&[anchors], &dev);
     let field = FieldQuery {
-        model: &model,
+        model: model.as_ref(),
         latent: None,
     };
     let silhouette_step = || {

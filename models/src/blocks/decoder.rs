@@ -1,5 +1,6 @@
-//! The implicit decoder: an MLP of `[z, γ(p)]` with ReLUs and a final sigmoid (paper: FC
-//! 2048-1024-512-256-128-1).
+//! The implicit decoder: an MLP of `[z, γ(p)]` with ReLUs and one linear output (paper: FC
+//! 2048-1024-512-256-128-1). The output is the representation's raw scalar: the logit of
+//! occupancy for an occupancy network, the signed distance for an SDF.
 //!
 //! The first layer is split into a latent part and a point part, `W·[z, γ(p)] = W_z·z + W_p·γ(p)`,
 //! so the latent is multiplied once per object instead of once per point: the same function as the
@@ -9,7 +10,7 @@
 
 use burn::nn::{Linear, LinearConfig};
 use burn::prelude::*;
-use burn::tensor::activation::{relu, sigmoid};
+use burn::tensor::activation::relu;
 use serde::{Deserialize, Serialize};
 
 /// Decoder widths and encoding.
@@ -113,14 +114,9 @@ impl Decoder {
         Tensor::cat(parts, 2)
     }
 
-    /// Occupancy `[B, N]` at `points` `[B, N, 3]`.
+    /// The raw output `[B, N]` at `points` `[B, N, 3]`, given latents `[B, Z]` (or none for a
+    /// decoder built without a latent).
     pub fn forward(&self, latent: Option<Tensor<2>>, points: Tensor<3>) -> Tensor<2> {
-        sigmoid(self.forward_logits(latent, points))
-    }
-
-    /// The logits `[B, N]` at `points` `[B, N, 3]` (φ = sigmoid of them): what finite
-    /// differences should be taken of, since they keep a gradient where φ saturates.
-    pub fn forward_logits(&self, latent: Option<Tensor<2>>, points: Tensor<3>) -> Tensor<2> {
         let mut x = self.point_in.forward(self.encode_points(points));
         if let (Some(layer), Some(z)) = (&self.latent_in, latent) {
             let zb: Tensor<3> = layer.forward(z).unsqueeze_dim(1);
