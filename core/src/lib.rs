@@ -1,24 +1,20 @@
 //! FieldProbe core: everything the method needs that is not a plugin.
 //!
-//! * [`geometry`] — the NMR/SoftRas camera of the published data, pixels ↔ rays, projection.
-//! * [`data`] — meshes, silhouettes, the CPU rasterizer, voxelizations, the visual hull,
-//!   procedural shapes and the published dataset layouts (Kato's npz, DVR's folders).
+//! * [`data`] (the `fieldprobe-data` crate, no burn) — meshes, silhouettes, the CPU rasterizer,
+//!   voxelizations, the visual hull, procedural shapes and the published dataset layouts (Kato's
+//!   npz, DVR's folders); re-exported with its [`geometry`] (the NMR camera) and [`extract`]
+//!   (meshes from a field) at this crate's root.
 //! * [`field`] — the representation traits: [`field::Field`] (φ(z, p)), [`field::FieldModel`]
 //!   (trainable, checkpointable) and their TOML side; implementations live in `fieldprobe-models`.
 //! * [`probe`] — samplers, ray–anchor assignment, aggregation, training batches.
 //! * [`regularize`] — the regularizer trait; [`registry`] — pluggable components.
 //! * [`train`] — the training loop and checkpoints; [`eval`] — 3D IoU in the NMR protocol.
-//! * [`extract`] — meshes from a field: MISE refinement + crack-free marching cubes, `.obj`/`.ply`.
 //!
 //! Conventions are fixed by `DESIGN.md` §4 and pinned by tests against hand-worked numbers and an
 //! independently computed golden file.
 
-pub mod data;
-pub mod error;
 pub mod eval;
-pub mod extract;
 pub mod field;
-pub mod geometry;
 pub mod probe;
 pub mod registry;
 pub mod regularize;
@@ -28,4 +24,5 @@ pub mod train;
 #[doc(hidden)]
 pub use inventory;
 
-pub use error::{Error, Result};
+pub use fieldprobe_data as data;
+pub use fieldprobe_data::{Error, Result, error, extract, geometry};

@@ -3,8 +3,8 @@
 use std::io::Write;
 use std::path::Path;
 
-use crate::data::dataset::write_atomic;
-use crate::data::mesh::TriMesh;
+use crate::io::write_atomic;
+use crate::mesh::TriMesh;
 use crate::{Error, Result};
 
 /// Writes `mesh` as a binary little-endian PLY: `element vertex` with float `x y z`, then

@@ -220,7 +220,7 @@ pub fn voxelize_winding(mesh: &TriMesh, resolution: usize) -> VoxelGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::procedural::primitives::MeshBuilder;
+    use crate::procedural::primitives::MeshBuilder;
 
     #[test]
     fn winding_number_of_a_cube() {

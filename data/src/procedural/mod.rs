@@ -701,7 +701,7 @@ fn watercraft(b: &mut MeshBuilder, rng: &mut impl Rng) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::voxelize::voxelize_nmr;
+    use crate::voxelize::voxelize_nmr;
 
     #[test]
     fn every_category_generates_valid_normalized_distinct_shapes() {

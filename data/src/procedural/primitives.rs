@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 
-use crate::data::mesh::TriMesh;
+use crate::mesh::TriMesh;
 
 /// Accumulates primitives into one mesh.
 #[derive(Clone, Debug, Default)]
@@ -144,7 +144,7 @@ impl MeshBuilder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::voxelize::winding_number;
+    use crate::voxelize::winding_number;
 
     /// Signed volume by the divergence theorem: positive iff faces point outwards.
     fn volume(m: &TriMesh) -> f32 {

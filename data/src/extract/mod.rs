@@ -6,7 +6,7 @@
 //! The field is sampled on the corners of a regular grid over the cube
 //! `[-0.5 − pad, 0.5 + pad]³` (objects live in `[-0.5, 0.5]³`). The default `pad = 0.5/31` makes
 //! the cube `[-16/31, 16/31]³`, the extent of NMR's 32³ evaluation grid
-//! ([`crate::data::GridFrame`]); at the default coarse resolution 32 the coarse grid lines are then
+//! ([`crate::GridFrame`]); at the default coarse resolution 32 the coarse grid lines are then
 //! exactly the boundaries of NMR's voxels, and an object that touches a face of the unit cube
 //! still has a grid layer outside it, so its surface there is interpolated, not cut. The finest
 //! grid has `resolution · 2^refinements` cells per axis (128 by default, spacing `1/124`).
@@ -49,7 +49,7 @@
 //!
 //! # Calling it on a trained model
 //!
-//! [`crate::eval::field_values`] already has the right shape (points `[M·3]` in, φ `[M]` out,
+//! `fieldprobe_core::eval::field_values` already has the right shape (points `[M·3]` in, φ `[M]` out,
 //! chunked on the device):
 //!
 //! ```ignore
@@ -70,7 +70,7 @@ pub use write::{write_mesh, write_ply, write_ply_to};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::data::mesh::TriMesh;
+use crate::mesh::TriMesh;
 use crate::{Error, Result};
 
 /// Largest finest-grid resolution (memory: `(n+1)³ × 5` bytes, 5.4 GB at 1024).
@@ -91,7 +91,7 @@ pub struct ExtractOptions {
     /// cubes at `resolution`.
     pub refinements: usize,
     /// Iso-level: a point is inside iff `φ ≥ threshold`. Unset (the default) means the field's
-    /// own level: a model's [`Field::level`](crate::field::Field::level) when extracting a
+    /// own level: a model's `Field::level` (in `fieldprobe-core`) when extracting a
     /// model's field, ½ for a plain closure.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub threshold: Option<f32>,

@@ -15,7 +15,7 @@ pub mod npy;
 
 use std::fmt;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
@@ -28,6 +28,9 @@ use super::render::{RenderOptions, RenderedView, render_nmr_views};
 use super::voxelize::Voxelizer;
 use crate::geometry::camera::{NMR_IMAGE_SIZE, NUM_VIEWS};
 use crate::{Error, Result};
+
+/// Re-exported from [`crate::io`], where it lives for every writer of the crate.
+pub use crate::io::write_atomic;
 
 /// Voxel resolution of the published ground truth.
 pub const VOXEL_RES: usize = 32;
@@ -252,34 +255,6 @@ impl DatasetInfo {
         let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
         serde_json::from_str(&text).map_err(|e| Error::format(&path, e.to_string()))
     }
-}
-
-/// Writes `path` through a temporary sibling and a rename, so that a crash or an error never
-/// leaves a half-written file where a good one was.
-pub fn write_atomic(
-    path: &Path,
-    write: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
-) -> Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
-    }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp: PathBuf = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
-    let result = (|| {
-        let file = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(file);
-        write(&mut w)?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -19,7 +19,7 @@ use image::{GrayImage, RgbImage};
 
 use super::npy::{NpyArray, read_npz, write_npz};
 use super::{ObjectSet, Split};
-use crate::data::category::Category;
+use crate::category::Category;
 use crate::geometry::Camera;
 use crate::geometry::camera::NUM_VIEWS;
 use crate::{Error, Result};

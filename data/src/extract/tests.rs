@@ -497,8 +497,8 @@ fn extracted_meshes_voxelize_solid_in_the_nmr_protocol() {
     // The default grid is aligned with NMR's lattice, so lattice lines meet the surface at mesh
     // vertices: the voxelizer's inclusive test must still close the shell, or the fill leaks and
     // only the shell remains.
-    use crate::data::voxelize::voxelize_nmr;
-    use crate::data::{GridFrame, VoxelGrid};
+    use crate::voxelize::voxelize_nmr;
+    use crate::{GridFrame, VoxelGrid};
     let (mesh, _, _) = run(sphere(0.3), &ExtractOptions::default());
     let nmr = voxelize_nmr(&mesh, 32);
     let frame = GridFrame::new(32);

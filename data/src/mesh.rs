@@ -150,7 +150,7 @@ impl TriMesh {
 
     /// Writes a Wavefront `.obj` atomically (temporary file, then rename).
     pub fn write_obj(&self, path: &Path) -> Result<()> {
-        crate::data::dataset::write_atomic(path, |w| self.write_obj_to(w))
+        crate::io::write_atomic(path, |w| self.write_obj_to(w))
     }
 }
 

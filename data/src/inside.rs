@@ -156,10 +156,10 @@ fn crossing(t: &[[f64; 3]; 3], p: [f64; 3]) -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::Category;
-    use crate::data::procedural::primitives::MeshBuilder;
-    use crate::data::procedural::{generate, object_rng};
-    use crate::data::voxelize::winding_number;
+    use crate::Category;
+    use crate::procedural::primitives::MeshBuilder;
+    use crate::procedural::{generate, object_rng};
+    use crate::voxelize::winding_number;
     use rand::{Rng, SeedableRng};
 
     /// The fast count equals the generalized winding number (the reference) at random points,

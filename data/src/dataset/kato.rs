@@ -10,9 +10,9 @@ use std::path::{Path, PathBuf};
 
 use super::npy::{DType, NpyArray, read_npz_key, write_npz};
 use super::{ObjectSet, Split};
-use crate::data::category::Category;
-use crate::data::grid::VoxelGrid;
+use crate::category::Category;
 use crate::geometry::camera::NUM_VIEWS;
+use crate::grid::VoxelGrid;
 use crate::{Error, Result};
 
 /// Path of the images file of `category`/`split` under `dir`.

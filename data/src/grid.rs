@@ -5,7 +5,7 @@
 //! the world coordinate `(i + ½ − R/2)/(R − 1)`: at `R = 32`, `(i − 15.5)/31`, and the grid spans
 //! `[-16/31, 16/31]`, slightly more than the unit cube. All our grids (ground-truth voxels, the
 //! visual hull, predictions) share this frame, indexed `[x][y][z]` in world axes; the file layout
-//! of Kato's voxels is a permutation of it handled by [`crate::data::dataset::kato`].
+//! of Kato's voxels is a permutation of it handled by [`crate::dataset::kato`].
 
 use glam::Vec3;
 

@@ -49,7 +49,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use crate::data::mesh::TriMesh;
+use crate::mesh::TriMesh;
 
 /// Clamp of the crossing fraction along an edge (see the module docs).
 const CLAMP: f64 = 1e-3;
@@ -132,7 +132,7 @@ const EDGE_FACES: [u8; 12] = {
 /// Extracts the surface `v = threshold` of a dense grid, closed at the grid's boundary.
 ///
 /// `values` holds `dims[0]·dims[1]·dims[2]` samples indexed `[x][y][z]` (z fastest, as
-/// [`crate::data::VoxelGrid`]); sample `(i, j, k)` lies at `origin + (i, j, k)·spacing`. Inside
+/// [`crate::VoxelGrid`]); sample `(i, j, k)` lies at `origin + (i, j, k)·spacing`. Inside
 /// is `v ≥ threshold`; NaN counts as outside. See the module docs for the guarantees (watertight,
 /// outward winding, shared vertices, no zero-area triangles).
 ///
