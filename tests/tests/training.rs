@@ -11,7 +11,9 @@ use fieldprobe_core::data::procedural::{generate, object_rng};
 use fieldprobe_core::data::render::RenderOptions;
 use fieldprobe_core::data::voxelize::Voxelizer;
 use fieldprobe_core::field::FieldModelConfig;
-use fieldprobe_core::probe::{AssignmentPolicy, MaxPool, ObjectProbe, ProbeBatch, ProbeSpec};
+use fieldprobe_core::probe::{
+    AssignmentPolicy, MaxPool, ObjectProbe, ProbeBatch, ProbeSpec, SoftMax,
+};
 use fieldprobe_core::train::{
     Components, PreparedStep, TrainError, TrainObject, Trainer, checkpoint, prepare_step,
     probe_loss, step_rng,
@@ -183,6 +185,20 @@ fn sdf_with_the_eikonal_term_learns_from_silhouettes() {
     let a = t.step(&next, &c, 1e-2).unwrap().loss;
     let b = back.step(&next, &c, 1e-2).unwrap().loss;
     assert!((a - b).abs() <= 1e-6 * a.abs().max(1.0), "{a} vs {b}");
+}
+
+/// The second aggregator trains through the same loop.
+#[test]
+fn soft_max_aggregation_learns_from_silhouettes() {
+    let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
+    let data = objects(1);
+    let dev = BackendChoice::Flex.select().device;
+    let c = Components {
+        aggregator: Box::new(SoftMax::default()),
+        ..comps()
+    };
+    let losses = train_with(&per_object(), &c, &dev, &data, 60);
+    falls(&losses);
 }
 
 #[test]
