@@ -18,6 +18,7 @@ use fieldprobe_core::eval::{
 };
 use fieldprobe_core::field::Field;
 use fieldprobe_core::geometry::NUM_VIEWS;
+use fieldprobe_core::probe::Aggregator;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -147,10 +148,12 @@ pub fn score_mesh(
     (iou, surface)
 }
 
-/// Evaluates `model` (in evaluation mode, on the plain `device`) on every category; `mesh_dir`
+/// Evaluates `model` (in evaluation mode, on the plain `device`) on every category (field
+/// silhouettes through `aggregator`, the run's); `mesh_dir`
 /// is the dataset's `meshes/` folder (ground-truth meshes for the surface metrics), if any.
 pub fn evaluate(
     model: &dyn Field,
+    aggregator: &dyn Aggregator,
     data: &[CategoryData],
     cfg: &EvalConfig,
     per_object_fit: bool,
@@ -245,6 +248,7 @@ pub fn evaluate(
                             z.as_ref(),
                             cam,
                             cfg.silhouette_samples,
+                            aggregator,
                             device,
                         )
                         .iou(gt_sil)

@@ -5,7 +5,7 @@
 //! ```
 //!
 //! The input is the object's first evaluated view. Silhouettes are rendered from the field
-//! (the dense max-pool probe of `eval::render_silhouette`) at the input view and at the views a
+//! (`eval::render_field_silhouette` through the run's aggregator; with the max, the dense max-pool probe) at the input view and at the views a
 //! quarter and a half turn away (+6 and +12 of NMR's 24), coloured as in
 //! [`crate::pictures::silhouette_overlay`]: grey both, red predicted only, blue true only. The
 //! turntable shows the mesh the metrics use.
@@ -21,6 +21,7 @@ use fieldprobe_core::data::dataset::write_atomic;
 use fieldprobe_core::eval::{encode_views, extract_field_mesh, render_field_silhouette};
 use fieldprobe_core::field::Field;
 use fieldprobe_core::geometry::NUM_VIEWS;
+use fieldprobe_core::probe::Aggregator;
 
 use crate::data::CategoryData;
 use crate::evaluate::eval_views;
@@ -52,6 +53,7 @@ pub struct GalleryRow {
 pub fn write(
     dir: &Path,
     model: &dyn Field,
+    aggregator: &dyn Aggregator,
     data: &[CategoryData],
     cfg: &EvalConfig,
     device: &Device,
@@ -77,8 +79,14 @@ pub fn write(
             for off in VIEW_OFFSETS {
                 let w = (view + off) % NUM_VIEWS;
                 let cam = &obj.supervision.cameras[w];
-                let pred =
-                    render_field_silhouette(model, z.as_ref(), cam, cfg.silhouette_samples, device);
+                let pred = render_field_silhouette(
+                    model,
+                    z.as_ref(),
+                    cam,
+                    cfg.silhouette_samples,
+                    aggregator,
+                    device,
+                );
                 let overlay =
                     pictures::silhouette_overlay(&pred, &obj.supervision.silhouettes[w], 1);
                 row.push(pictures::fit(&overlay, PANEL));

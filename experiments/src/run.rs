@@ -240,8 +240,14 @@ pub fn evaluate_run(
     let mesh_dir = exp.data.dir.join("meshes");
     let mesh_dir = mesh_dir.is_dir().then_some(mesh_dir.as_path());
     info!("evaluating on the {} split", exp.data.eval_split.name());
+    // Field silhouettes are rendered through the run's aggregator, as training saw them.
+    let comps = exp
+        .components()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", exp.name))?;
+    let aggregator = comps.aggregator.as_ref();
     let per_category = evaluate(
         model,
+        aggregator,
         data,
         &exp.eval,
         per_object_fit,
@@ -249,7 +255,7 @@ pub fn evaluate_run(
         &selected.device,
     )?;
     let eval_seconds = t0.elapsed().as_secs_f64();
-    let gallery = crate::gallery::write(dir, model, data, &exp.eval, &selected.device)?;
+    let gallery = crate::gallery::write(dir, model, aggregator, data, &exp.eval, &selected.device)?;
     if !training.history.is_empty() {
         let curve = plot::loss_terms_chart(&training.history, &training.terms);
         plot::write_png(&dir.join("training_curves.png"), &curve)?;

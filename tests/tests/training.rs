@@ -187,6 +187,45 @@ fn sdf_with_the_eikonal_term_learns_from_silhouettes() {
     assert!((a - b).abs() <= 1e-6 * a.abs().max(1.0), "{a} vs {b}");
 }
 
+/// Every batch entry carries its anchor's depth along the ray and distance from it (what a
+/// geometric aggregator reads), recomputed here from the cameras, and padding carries zeros.
+#[test]
+fn batches_carry_each_pairs_depth_and_distance() {
+    let data = objects(1);
+    let c = comps();
+    let sup = &data[0].supervision;
+    let probe = ObjectProbe::sample(
+        sup,
+        &SPEC,
+        c.ray_sampler.as_ref(),
+        c.anchor_sampler.as_ref(),
+        &mut step_rng(3, 0, 1),
+    );
+    for compact in [false, true] {
+        let b = ProbeBatch::assemble(std::slice::from_ref(&probe), compact);
+        let mut checked = 0;
+        for r in 0..b.rays {
+            let ray = sup.cameras[probe.rays.views[r] as usize].ray(probe.rays.pixels[r]);
+            for k in 0..b.width {
+                let e = r * b.width + k;
+                if !b.valid[e] {
+                    assert_eq!((b.depth[e], b.distance[e]), (0.0, 0.0));
+                    continue;
+                }
+                let i = b.index[e] as usize;
+                let a = glam::Vec3::from_slice(&b.anchors[3 * i..3 * i + 3]);
+                let t = (a - ray.origin).dot(ray.direction);
+                let d = (a - ray.origin - ray.direction * t).length();
+                assert!((b.depth[e] - t).abs() < 1e-5 && (b.distance[e] - d).abs() < 1e-5);
+                assert!(d <= SPEC.radius + 1e-5, "assigned within τ: {d}");
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, b.pairs);
+        assert!(checked > 0);
+    }
+}
+
 /// The second aggregator trains through the same loop.
 #[test]
 fn soft_max_aggregation_learns_from_silhouettes() {

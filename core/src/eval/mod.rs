@@ -28,6 +28,7 @@ use crate::data::{Silhouette, TriMesh, VoxelGrid};
 use crate::extract::{ExtractOptions, extract_mesh};
 use crate::field::Field;
 use crate::geometry::{Camera, NUM_VIEWS, PixelPos};
+use crate::probe::{Aggregator, RayValues};
 use crate::train::TrainObject;
 use glam::Vec3;
 use occupancy::{FieldVoxels, MaxPoolPath, VoxelProtocol};
@@ -197,19 +198,12 @@ pub fn mean_shape(grids: &[VoxelGrid]) -> Option<VoxelGrid> {
 /// so renders read φ only inside it.
 pub const FIELD_HALF_EXTENT: f32 = 0.5;
 
-/// The silhouette of a field seen by `camera`: a pixel is covered when the maximum of φ over
-/// `samples` evenly spaced points of its ray inside the field's domain (the cube
-/// `[-FIELD_HALF_EXTENT, FIELD_HALF_EXTENT]³`) is at least `level` — the dense version of the
-/// max-pool probe. `field` maps points `[M·3]` to φ `[M]`; a ray that misses the cube is empty.
-pub fn render_silhouette(
-    camera: &Camera,
-    samples: usize,
-    level: f32,
-    field: impl FnOnce(&[f32]) -> Vec<f32>,
-) -> Silhouette {
+/// The rays of `camera` that meet the field's domain and `samples` evenly spaced points on each
+/// inside it: `(pixel index, depths [samples])` per ray, and the points `[rays·samples·3]`.
+fn domain_ray_samples(camera: &Camera, samples: usize) -> (Vec<(usize, Vec<f32>)>, Vec<f32>) {
     let s = camera.image_size;
     let bound = Vec3::splat(FIELD_HALF_EXTENT);
-    let mut hit = Vec::new();
+    let mut rays = Vec::new();
     let mut points = Vec::new();
     for row in 0..s {
         for col in 0..s {
@@ -218,35 +212,84 @@ pub fn render_silhouette(
                 row: row as f32,
             });
             if let Some((t0, t1)) = ray.box_interval(-bound, bound) {
-                hit.push(row * s + col);
-                for k in 0..samples {
-                    let t = t0 + (t1 - t0) * (k as f32 + 0.5) / samples as f32;
+                let depths: Vec<f32> = (0..samples)
+                    .map(|k| t0 + (t1 - t0) * (k as f32 + 0.5) / samples as f32)
+                    .collect();
+                for &t in &depths {
                     points.extend(ray.at(t).to_array());
                 }
+                rays.push((row * s + col, depths));
             }
         }
     }
+    (rays, points)
+}
+
+/// The silhouette of a field seen by `camera`: a pixel is covered when the maximum of φ over
+/// `samples` evenly spaced points of its ray inside the field's domain (the cube
+/// `[-FIELD_HALF_EXTENT, FIELD_HALF_EXTENT]³`) is at least `level` — the dense version of the
+/// max-pool probe. `field` maps points `[M·3]` to φ `[M]`; a ray that misses the cube is empty.
+/// The reference of [`render_field_silhouette`] with the max aggregator.
+pub fn render_silhouette(
+    camera: &Camera,
+    samples: usize,
+    level: f32,
+    field: impl FnOnce(&[f32]) -> Vec<f32>,
+) -> Silhouette {
+    let (rays, points) = domain_ray_samples(camera, samples);
     let values = field(&points);
-    let mut out = Silhouette::empty(s);
-    for (&pixel, ray_values) in hit.iter().zip(values.chunks(samples)) {
+    let mut out = Silhouette::empty(camera.image_size);
+    for ((pixel, _), ray_values) in rays.iter().zip(values.chunks(samples)) {
         if ray_values.iter().any(|&v| v >= level) {
-            out.data[pixel] = 1.0;
+            out.data[*pixel] = 1.0;
         }
     }
     out
 }
 
-/// [`render_silhouette`] of a model's field (one latent, or none for a per-object field).
+/// The silhouette of a model's field (one latent, or none for a per-object field) as training
+/// sees it: φ at `samples` evenly spaced points of each pixel's ray inside the field's domain,
+/// turned into one prediction per ray by the run's `aggregator` (every sample an "anchor" on the
+/// ray, at distance 0 from it), covered where the prediction reaches the model's level. With the
+/// max aggregator this is [`render_silhouette`].
 pub fn render_field_silhouette(
     model: &dyn Field,
     latent: Option<&Tensor<2>>,
     camera: &Camera,
     samples: usize,
+    aggregator: &dyn Aggregator,
     device: &Device,
 ) -> Silhouette {
-    render_silhouette(camera, samples, model.level(), |points| {
-        field_values(model, latent, points, device)
-    })
+    let (rays, points) = domain_ray_samples(camera, samples);
+    let mut out = Silhouette::empty(camera.image_size);
+    if rays.is_empty() || samples == 0 {
+        return out;
+    }
+    let values = field_values(model, latent, &points, device);
+    let shape = [rays.len(), samples];
+    let mut input = RayValues::new(
+        Tensor::<2>::from_data(TensorData::new(values, shape), device),
+        Tensor::<2, Bool>::from_data(
+            TensorData::new(vec![true; rays.len() * samples], shape),
+            device,
+        ),
+    );
+    if aggregator.uses_geometry() {
+        let depth: Vec<f32> = rays.iter().flat_map(|(_, d)| d.iter().copied()).collect();
+        input.depth = Some(Tensor::from_data(TensorData::new(depth, shape), device));
+        input.distance = Some(Tensor::zeros(shape, device));
+    }
+    let psi: Vec<f32> = aggregator
+        .aggregate(input)
+        .try_into_vec_as::<f32>()
+        .expect("f32 predictions");
+    let level = model.level();
+    for ((pixel, _), p) in rays.iter().zip(psi) {
+        if p >= level {
+            out.data[*pixel] = 1.0;
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -333,5 +376,38 @@ mod tests {
         let covered = sil.data.iter().filter(|&&v| v > 0.5).count();
         assert!(covered > 0 && covered < sil.data.len());
         assert_eq!(sil.data[0], 0.0);
+    }
+
+    /// A ball of radius `r` as a model: logits `(r − |p|)·k`.
+    #[derive(Debug)]
+    struct Ball(f32);
+
+    impl Field for Ball {
+        fn encode(&self, _images: Tensor<4>) -> Option<Tensor<2>> {
+            None
+        }
+        fn logits(&self, _latent: Option<Tensor<2>>, points: Tensor<3>) -> Tensor<2> {
+            let r: Tensor<2> = points.powi_scalar(2).sum_dim(2).sqrt().squeeze_dim(2);
+            r.neg().add_scalar(self.0).mul_scalar(200.0)
+        }
+    }
+
+    #[test]
+    fn a_models_silhouette_through_the_max_aggregator_is_the_dense_max_probe() {
+        use crate::probe::{MaxPool, SoftMax};
+        let dev = Device::flex();
+        let ball = Ball(0.3);
+        let cam = Camera::nmr(5);
+        let via_max = render_field_silhouette(&ball, None, &cam, 48, &MaxPool {}, &dev);
+        let reference = render_silhouette(&cam, 48, 0.5, |p| field_values(&ball, None, p, &dev));
+        assert_eq!(via_max.data, reference.data);
+        assert!(via_max.data.iter().any(|&v| v > 0.0));
+        // A soft max lies below the max, so its silhouette is inside the max's; a warm one
+        // (nearer the mean) drops rays that graze the ball.
+        let warm = SoftMax { temperature: 1.0 };
+        let soft = render_field_silhouette(&ball, None, &cam, 48, &warm, &dev);
+        let inside = soft.data.iter().zip(&via_max.data).all(|(s, m)| *s <= *m);
+        let fewer = soft.data.iter().sum::<f32>() < via_max.data.iter().sum::<f32>();
+        assert!(inside && fewer);
     }
 }

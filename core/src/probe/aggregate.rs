@@ -5,12 +5,47 @@ use std::fmt::Debug;
 use burn::prelude::*;
 use serde::{Deserialize, Serialize};
 
+/// What an aggregator sees of a batch of rays: per ray, the anchors it meets, padded to `K`.
+#[derive(Debug)]
+pub struct RayValues {
+    /// `[R, K]` φ at the anchors of each ray; padded entries hold 0.
+    pub values: Tensor<2>,
+    /// `[R, K]` whether an entry is a real anchor.
+    pub valid: Tensor<2, Bool>,
+    /// `[R, K]` each anchor's depth along its ray (distance from the camera centre along the
+    /// ray's unit direction, world units); present when the aggregator
+    /// [uses geometry](Aggregator::uses_geometry). Padded entries hold 0.
+    pub depth: Option<Tensor<2>>,
+    /// `[R, K]` each anchor's distance from its ray's line (≤ the support radius τ for an
+    /// assigned anchor); present when the aggregator uses geometry. Padded entries hold 0.
+    pub distance: Option<Tensor<2>>,
+}
+
+impl RayValues {
+    /// Values and mask only (for aggregators that do not use geometry).
+    pub fn new(values: Tensor<2>, valid: Tensor<2, Bool>) -> Self {
+        Self {
+            values,
+            valid,
+            depth: None,
+            distance: None,
+        }
+    }
+}
+
 /// Turns the field values at the anchors of each ray into the ray's prediction ψ.
 pub trait Aggregator: Send + Sync + Debug {
-    /// `values` `[R, K]`: φ at the anchors of each ray, padded; `valid` `[R, K]` marks real
-    /// entries. Padded entries hold 0. A ray with no anchor must predict 0 ("nothing probed, no
+    /// One prediction per ray. A ray with no anchor must predict 0 ("nothing probed, no
     /// occupancy seen"): such a ray then adds a constant `label²` to the loss and no gradient.
-    fn aggregate(&self, values: Tensor<2>, valid: Tensor<2, Bool>) -> Tensor<1>;
+    fn aggregate(&self, rays: RayValues) -> Tensor<1>;
+
+    /// Whether [`aggregate`](Self::aggregate) reads [`RayValues::depth`] and
+    /// [`RayValues::distance`]: they cost two more `[R, K]` tensors per step, so training and
+    /// evaluation build them only for aggregators that ask (order-aware compositing, support
+    /// kernels). Default: no.
+    fn uses_geometry(&self) -> bool {
+        false
+    }
 }
 
 /// The TOML/serde side of an aggregator.
@@ -25,7 +60,8 @@ pub trait AggregatorConfig: Send + Sync + Debug {
 pub struct MaxPool {}
 
 impl Aggregator for MaxPool {
-    fn aggregate(&self, values: Tensor<2>, valid: Tensor<2, Bool>) -> Tensor<1> {
+    fn aggregate(&self, rays: RayValues) -> Tensor<1> {
+        let RayValues { values, valid, .. } = rays;
         // φ ∈ (0, 1), so 0 is neutral for the max and is the empty ray's prediction.
         values
             .mask_fill(valid.bool_not(), 0.0)
@@ -76,7 +112,8 @@ impl Default for SoftMax {
 }
 
 impl Aggregator for SoftMax {
-    fn aggregate(&self, values: Tensor<2>, valid: Tensor<2, Bool>) -> Tensor<1> {
+    fn aggregate(&self, rays: RayValues) -> Tensor<1> {
+        let RayValues { values, valid, .. } = rays;
         // Shifted by each ray's max m (a constant for the softmax, so detached): exp((φ − m)/T)
         // ≤ 1 with the largest weight exactly 1, so neither overflow nor underflow of the whole
         // row at small T. Padded entries get weight 0; an empty ray has all weights 0, a
@@ -138,7 +175,7 @@ mod tests {
             &dev,
         );
         let out: Vec<f32> = MaxPool {}
-            .aggregate(values, valid)
+            .aggregate(RayValues::new(values, valid))
             .try_into_vec_as::<f32>()
             .unwrap();
         assert_eq!(out, vec![0.9, 0.4, 0.0]);
@@ -184,7 +221,7 @@ mod tests {
                 &dev,
             );
             SoftMax { temperature: t }
-                .aggregate(values, valid)
+                .aggregate(RayValues::new(values, valid))
                 .try_into_vec_as::<f32>()
                 .unwrap()
         };

@@ -34,6 +34,10 @@ pub struct ObjectProbe {
     pub anchors: Vec<Vec3>,
     pub rays: RaySet,
     pub assignment: Assignment,
+    /// Per assigned pair (aligned with `assignment.anchors`): the anchor's depth along the ray
+    /// and its distance from the ray's line ([`RayValues`](super::RayValues)' geometry).
+    pub pair_depth: Vec<f32>,
+    pub pair_distance: Vec<f32>,
 }
 
 impl ObjectProbe {
@@ -64,12 +68,36 @@ impl ObjectProbe {
             radius: spec.radius,
             policy: spec.assignment,
         });
+        let (pair_depth, pair_distance) = pair_geometry(object, &anchor_points, &set, &assignment);
         Self {
             anchors: anchor_points,
             rays: set,
             assignment,
+            pair_depth,
+            pair_distance,
         }
     }
+}
+
+/// Depth along the ray and distance from its line of every assigned pair.
+fn pair_geometry(
+    object: &Supervision,
+    anchors: &[Vec3],
+    rays: &RaySet,
+    assignment: &Assignment,
+) -> (Vec<f32>, Vec<f32>) {
+    let mut depth = Vec::with_capacity(assignment.anchors.len());
+    let mut distance = Vec::with_capacity(assignment.anchors.len());
+    for r in 0..rays.len() {
+        let ray = object.cameras[rays.views[r] as usize].ray(rays.pixels[r]);
+        for &a in assignment.of(r) {
+            let rel = anchors[a as usize] - ray.origin;
+            let t = rel.dot(ray.direction);
+            depth.push(t);
+            distance.push((rel - ray.direction * t).length());
+        }
+    }
+    (depth, distance)
 }
 
 /// The host-side tensors of one step.
@@ -94,6 +122,10 @@ pub struct ProbeBatch {
     pub index: Vec<i32>,
     /// `[R, K]` whether an entry is a real anchor.
     pub valid: Vec<bool>,
+    /// `[R, K]` depth of each entry's anchor along its ray (0 for padding).
+    pub depth: Vec<f32>,
+    /// `[R, K]` distance of each entry's anchor from its ray's line (0 for padding).
+    pub distance: Vec<f32>,
     /// `[R]` silhouette targets.
     pub labels: Vec<f32>,
     /// Ray–anchor pairs assigned (real entries of `index`).
@@ -157,6 +189,8 @@ impl ProbeBatch {
         let rays: usize = objects.iter().map(|o| o.rays.len()).sum();
         let mut index = Vec::with_capacity(rays * width);
         let mut valid = Vec::with_capacity(rays * width);
+        let mut depth = Vec::with_capacity(rays * width);
+        let mut distance = Vec::with_capacity(rays * width);
         let mut labels = Vec::with_capacity(rays);
         let mut anchors = Vec::with_capacity(objects.len() * kept * 3);
         let mut pairs = 0;
@@ -169,6 +203,14 @@ impl ProbeBatch {
             let base = (b * kept) as i32;
             for r in 0..o.rays.len() {
                 let hit = o.assignment.of(r);
+                let (from, to) = (
+                    o.assignment.offsets[r] as usize,
+                    o.assignment.offsets[r + 1] as usize,
+                );
+                depth.extend_from_slice(&o.pair_depth[from..to]);
+                depth.extend(std::iter::repeat_n(0.0, width - hit.len()));
+                distance.extend_from_slice(&o.pair_distance[from..to]);
+                distance.extend(std::iter::repeat_n(0.0, width - hit.len()));
                 pairs += hit.len();
                 index.extend(hit.iter().map(|&a| base + position[a as usize]));
                 valid.extend(std::iter::repeat_n(true, hit.len()));
@@ -192,6 +234,8 @@ impl ProbeBatch {
             width,
             index,
             valid,
+            depth,
+            distance,
             labels,
             pairs,
         }

@@ -6,7 +6,7 @@ pub mod assign;
 pub mod batch;
 pub mod sampler;
 
-pub use aggregate::{Aggregator, AggregatorConfig, MaxPool, SoftMax};
+pub use aggregate::{Aggregator, AggregatorConfig, MaxPool, RayValues, SoftMax};
 pub use assign::{Assignment, AssignmentPolicy, Probe, RaySet, assign_all_pairs, assign_binned};
 pub use batch::{ObjectProbe, ProbeBatch, ProbeSpec};
 pub use sampler::{AnchorSampler, AnchorSamplerConfig, RaySampler, RaySamplerConfig, Supervision};

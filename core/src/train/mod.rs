@@ -29,7 +29,8 @@ use crate::data::dataset::ObjectSet;
 use crate::field::{Field, FieldModel, FieldModelConfig};
 use crate::geometry::NUM_VIEWS;
 use crate::probe::{
-    Aggregator, AnchorSampler, ObjectProbe, ProbeBatch, ProbeSpec, RaySampler, Supervision,
+    Aggregator, AnchorSampler, ObjectProbe, ProbeBatch, ProbeSpec, RaySampler, RayValues,
+    Supervision,
 };
 use crate::regularize::{FieldQuery, Regularizer};
 
@@ -261,7 +262,15 @@ pub fn probe_loss(
     let values: Tensor<2> = flat.select(0, index).reshape([b.rays, b.width]);
     let valid =
         Tensor::<2, Bool>::from_data(TensorData::new(b.valid.clone(), [b.rays, b.width]), device);
-    let pred = comps.aggregator.aggregate(values, valid);
+    let mut rays = RayValues::new(values, valid);
+    if comps.aggregator.uses_geometry() {
+        let grid = |v: &Vec<f32>| {
+            Tensor::<2>::from_data(TensorData::new(v.clone(), [b.rays, b.width]), device)
+        };
+        rays.depth = Some(grid(&b.depth));
+        rays.distance = Some(grid(&b.distance));
+    }
+    let pred = comps.aggregator.aggregate(rays);
     let labels = Tensor::<1>::from_data(TensorData::new(b.labels.clone(), [b.rays]), device);
     let sil = (pred - labels)
         .powi_scalar(2)

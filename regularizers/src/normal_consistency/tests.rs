@@ -712,7 +712,7 @@ fn cost_of_the_regularizer_against_a_silhouette_step() {
             TensorData::new(vec![true; rays * width], [rays, width]),
             &dev,
         );
-        let pred = MaxPool {}.aggregate(values, valid);
+        let pred = MaxPool {}.aggregate(fieldprobe_core::probe::RayValues::new(values, valid));
         let y = Tensor::<1>::from_data(TensorData::new(labels.clone(), [rays]), &dev);
         let loss = (pred - y).powi_scalar(2).mean();
         let _ = loss.backward();
