@@ -29,7 +29,8 @@ pub struct RunArgs {
     /// Run directory (default: `runs/<name>`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Continue from the run directory's latest checkpoint.
+    /// Continue from the run directory's latest checkpoint (a directory without one starts
+    /// from step 0, so scripts can always pass it).
     #[arg(long)]
     pub resume: bool,
     /// Ablation files: run only this entry (its name or directory name); finished entries are
@@ -308,6 +309,16 @@ fn train(
     ckpt: &Path,
     resume: bool,
 ) -> Result<(Trainer, f64)> {
+    let resume = resume && {
+        let found = checkpoint::latest(ckpt)?.is_some();
+        if !found {
+            info!(
+                "--resume: no checkpoint in {} yet; starting at step 0",
+                ckpt.display()
+            );
+        }
+        found
+    };
     let mut trainer = if resume {
         let t = checkpoint::load(exp.model.as_ref(), device, ckpt)?;
         info!("resumed from {} at step {}", ckpt.display(), t.step);

@@ -245,7 +245,12 @@ fn list_shows_every_component_with_an_example() {
         "`uniform`",
         "`normal`",
         "`max`",
+        "`softmax`",
         "`none`",
+        "`eikonal`",
+        "`single_view`",
+        "`sdf`",
+        "[model]",
         "[probe.ray_sampler]",
         "sigma = 0.4",
     ] {
@@ -313,7 +318,13 @@ fn a_run_reports_meshes_and_pictures_and_its_inputs_reconstruct() {
     std::fs::write(&file, TINY_RUN.replace("DATA", data.to_str().unwrap())).unwrap();
     let run = dir.path().join("run");
     let r = run.to_str().unwrap();
-    ok(&experiments(&[file.to_str().unwrap(), "--out", r]));
+    // `--resume` on a directory with no checkpoint starts from step 0 (scripts always pass it).
+    ok(&experiments(&[
+        file.to_str().unwrap(),
+        "--out",
+        r,
+        "--resume",
+    ]));
 
     for name in [
         "config.toml",

@@ -46,12 +46,7 @@ impl Eikonal {
 
     /// Checks the ranges; the error names the field.
     pub fn validate(&self) -> Result<(), String> {
-        if !(self.weight >= 0.0 && self.weight.is_finite()) {
-            return Err(format!(
-                "regularizer.weight must be a finite number ≥ 0, got {}",
-                self.weight
-            ));
-        }
+        crate::common::check_weight(self.weight)?;
         if !(self.delta > 0.0 && self.delta < 0.1) {
             return Err(format!(
                 "regularizer.delta must be in (0, 0.1), got {}",
@@ -80,15 +75,7 @@ impl Eikonal {
             return None;
         }
         let device = anchors.device();
-        let centres = if n < all {
-            let idx: Vec<i32> = (0..n).map(|i| (i * all / n) as i32).collect();
-            anchors.clone().select(
-                1,
-                Tensor::<1, Int>::from_data(TensorData::new(idx, [n]), &device),
-            )
-        } else {
-            anchors.clone()
-        };
+        let centres = crate::common::strided_subset(anchors, n);
         // [B, 6n, 3]: +x, −x, +y, −y, +z, −z offsets of every centre, one block per offset.
         let mut shifted = Vec::with_capacity(6);
         for axis in 0..3 {

@@ -159,12 +159,7 @@ impl NormalConsistency {
 
     /// Checks the ranges; the error names the field.
     pub fn validate(&self) -> Result<(), String> {
-        if !(self.weight >= 0.0 && self.weight.is_finite()) {
-            return Err(format!(
-                "regularizer.weight must be a finite number ≥ 0, got {}",
-                self.weight
-            ));
-        }
+        crate::common::check_weight(self.weight)?;
         if !(self.p > 0.0 && self.p.is_finite()) {
             return Err(format!("regularizer.p must be positive, got {}", self.p));
         }
@@ -211,13 +206,7 @@ impl NormalConsistency {
         }
         let [b, all, _] = anchors.dims();
         let n = self.gated_per_object(b, all);
-        let anchors = &if n < all {
-            let idx: Vec<i32> = (0..n).map(|i| (i * all / n) as i32).collect();
-            let idx = Tensor::<1, Int>::from_data(TensorData::new(idx, [n]), &anchors.device());
-            anchors.clone().select(1, idx)
-        } else {
-            anchors.clone()
-        };
+        let anchors = &crate::common::strided_subset(anchors, n);
         let gate = self
             .differences
             .phi(level(anchors.clone()).detach().unsqueeze_dim::<3>(2));
