@@ -136,6 +136,56 @@ pub struct RunOutcome {
     pub report: String,
 }
 
+/// Runs a shipped experiment file shrunk to seconds, inside `dir`: its data generated privately
+/// there (4 training objects), `steps` training steps checkpointed halfway, one evaluation view;
+/// everything else (the model, probes, plugins) as shipped. What plugin crates use to test that
+/// their TOML file trains end to end. Returns the run directory.
+pub fn run_shrunk(shipped: &Path, dir: &Path, steps: usize) -> Result<PathBuf> {
+    let text = std::fs::read_to_string(shipped)
+        .with_context(|| format!("cannot read {}", shipped.display()))?;
+    let mut doc: toml::Table = text
+        .parse()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", shipped.display()))?;
+    let table = |doc: &mut toml::Table, key: &str| -> Result<toml::Table> {
+        match doc.get(key) {
+            Some(toml::Value::Table(t)) => Ok(t.clone()),
+            _ => bail!("{}: no [{key}] table", shipped.display()),
+        }
+    };
+    let mut data = table(&mut doc, "data")?;
+    data.insert(
+        "dir".into(),
+        toml::Value::String(dir.join("data").to_string_lossy().into_owned()),
+    );
+    if let Some(toml::Value::Table(g)) = data.get_mut("generate") {
+        g.insert("train".into(), toml::Value::Integer(4));
+    }
+    doc.insert("data".into(), toml::Value::Table(data));
+    let mut train = table(&mut doc, "train")?;
+    train.insert("steps".into(), toml::Value::Integer(steps as i64));
+    train.insert(
+        "checkpoint_every".into(),
+        toml::Value::Integer((steps / 2).max(1) as i64),
+    );
+    doc.insert("train".into(), toml::Value::Table(train));
+    let mut eval = table(&mut doc, "eval").unwrap_or_default();
+    eval.insert("views".into(), toml::Value::Integer(1));
+    doc.insert("eval".into(), toml::Value::Table(eval));
+    let name = shipped.file_name().unwrap_or_default();
+    let file = dir.join(name);
+    std::fs::write(&file, toml::to_string(&doc)?)
+        .with_context(|| format!("cannot write {}", file.display()))?;
+    let out = dir.join("run");
+    run(RunArgs {
+        file,
+        out: Some(out.clone()),
+        resume: false,
+        variant: None,
+        seed: None,
+    })?;
+    Ok(out)
+}
+
 /// Refuses to start over a run directory that holds a checkpoint, unless resuming.
 pub fn check_can_start(dir: &Path, resume: bool) -> Result<()> {
     let ckpt = dir.join("checkpoints");
