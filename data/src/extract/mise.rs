@@ -1,7 +1,7 @@
 //! MISE: sampling the field on the finest grid where it matters (see the module docs of
 //! [`super`] for the rules).
 
-use super::{ExtractOptions, ExtractStats};
+use super::ExtractOptions;
 
 const UNKNOWN: u8 = 0;
 const QUEUED: u8 = 1;
@@ -12,7 +12,6 @@ pub(super) struct Samples {
     /// Cells per axis of the finest grid.
     pub n: usize,
     pub values: Vec<f32>,
-    pub stats: ExtractStats,
 }
 
 /// Runs MISE. `lo` and `h` place sample `i` of an axis at `lo + i·h`.
@@ -28,7 +27,6 @@ pub(super) fn sample(
     let idx = |i: usize, j: usize, k: usize| (i * np + j) * np + k;
     let mut values = vec![f32::NAN; np * np * np];
     let mut state = vec![UNKNOWN; np * np * np];
-    let mut evaluated = Vec::with_capacity(levels + 1);
     let t = opts.level();
 
     let mut evaluate = |queue: &[usize], values: &mut [f32], state: &mut [u8]| {
@@ -54,7 +52,6 @@ pub(super) fn sample(
                 state[p] = KNOWN;
             }
         }
-        queue.len()
     };
 
     // Level 0: the whole coarse grid.
@@ -68,7 +65,7 @@ pub(super) fn sample(
             }
         }
     }
-    evaluated.push(evaluate(&queue, &mut values, &mut state));
+    evaluate(&queue, &mut values, &mut state);
 
     for level in 0..levels {
         // Level-`level` cells have `cells` per axis and span `s` finest cells.
@@ -125,7 +122,7 @@ pub(super) fn sample(
                 }
             }
         }
-        evaluated.push(evaluate(&queue, &mut values, &mut state));
+        evaluate(&queue, &mut values, &mut state);
 
         // Fill the rest of level `level + 1` by trilinear interpolation of level `level`.
         let m = cells * 2;
@@ -159,15 +156,7 @@ pub(super) fn sample(
         }
     }
 
-    Samples {
-        n,
-        values,
-        stats: ExtractStats {
-            evaluated,
-            fine_resolution: n,
-            spacing: h as f32,
-        },
-    }
+    Samples { n, values }
 }
 
 /// Marks the 26 neighbours of every marked cell (a 3×3×3 max filter, one axis at a time).

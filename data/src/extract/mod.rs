@@ -164,24 +164,6 @@ impl ExtractOptions {
     }
 }
 
-/// What [`extract_mesh_with_stats`] did.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ExtractStats {
-    /// Points evaluated at each level: the coarse grid, then each refinement.
-    pub evaluated: Vec<usize>,
-    /// Cells per axis of the grid marching cubes ran on.
-    pub fine_resolution: usize,
-    /// Its spacing in world units.
-    pub spacing: f32,
-}
-
-impl ExtractStats {
-    /// All points evaluated.
-    pub fn total_evaluated(&self) -> usize {
-        self.evaluated.iter().sum()
-    }
-}
-
 /// Extracts the surface `φ = threshold` of `field` with MISE and marching cubes (see the module
 /// docs).
 ///
@@ -193,14 +175,6 @@ impl ExtractStats {
 /// # Panics
 /// If [`ExtractOptions::validate`] fails or `field` returns the wrong number of values.
 pub fn extract_mesh(field: &mut dyn FnMut(&[f32]) -> Vec<f32>, opts: &ExtractOptions) -> TriMesh {
-    extract_mesh_with_stats(field, opts).0
-}
-
-/// [`extract_mesh`], also returning how many points were evaluated.
-pub fn extract_mesh_with_stats(
-    field: &mut dyn FnMut(&[f32]) -> Vec<f32>,
-    opts: &ExtractOptions,
-) -> (TriMesh, ExtractStats) {
     if let Err(e) = opts.validate() {
         panic!("{e}");
     }
@@ -208,14 +182,13 @@ pub fn extract_mesh_with_stats(
     let h = (1.0 + 2.0 * f64::from(opts.padding)) / opts.fine_resolution() as f64;
     let samples = mise::sample(field, opts, lo, h);
     let np = samples.n + 1;
-    let mesh = marching_cubes(
+    marching_cubes(
         &samples.values,
         [np; 3],
         Vec3::splat(lo as f32),
         Vec3::splat(h as f32),
         opts.level(),
-    );
-    (mesh, samples.stats)
+    )
 }
 
 #[cfg(test)]
