@@ -6,6 +6,7 @@
 //!   (meshes from a field) at this crate's root.
 //! * [`field`] — the representation traits: [`field::Field`] (φ(z, p)), [`field::FieldModel`]
 //!   (trainable, checkpointable) and their TOML side; implementations live in `fieldprobe-models`.
+//! * [`object`] — an object's input images and supervision, read by training and evaluation.
 //! * [`probe`] — samplers, ray–anchor assignment, aggregation, training batches.
 //! * [`regularize`] — the regularizer trait; [`registry`] — pluggable components.
 //! * [`train`] — the training loop and checkpoints; [`eval`] — 3D IoU in the NMR protocol.
@@ -15,6 +16,7 @@
 
 pub mod eval;
 pub mod field;
+pub mod object;
 pub mod probe;
 pub mod registry;
 pub mod regularize;

@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 use fieldprobe_core::data::dataset::{Layout, ObjectSet, Split, discover, read_set};
 use fieldprobe_core::data::{Category, VoxelGrid};
-use fieldprobe_core::train::TrainObject;
+use fieldprobe_core::object::ObjectViews;
 
 use crate::experiment::{DataConfig, Experiment};
 
@@ -14,10 +14,10 @@ use crate::experiment::{DataConfig, Experiment};
 #[derive(Debug)]
 pub struct CategoryData {
     pub category: Category,
-    pub train: Vec<TrainObject>,
+    pub train: Vec<ObjectViews>,
     /// Ground truth of the training objects (for the 3D-supervised reference only).
     pub train_gt: Vec<VoxelGrid>,
-    pub eval: Vec<TrainObject>,
+    pub eval: Vec<ObjectViews>,
     pub eval_gt: Vec<VoxelGrid>,
     pub eval_ids: Vec<String>,
 }
@@ -117,7 +117,7 @@ pub fn load(exp: &Experiment) -> Result<Vec<CategoryData>> {
             category,
             train: train_idx
                 .iter()
-                .map(|&i| TrainObject::from_set(&train_set, i))
+                .map(|&i| ObjectViews::from_set(&train_set, i))
                 .collect(),
             train_gt: train_idx
                 .iter()
@@ -125,7 +125,7 @@ pub fn load(exp: &Experiment) -> Result<Vec<CategoryData>> {
                 .collect::<Result<_>>()?,
             eval: eval_idx
                 .iter()
-                .map(|&i| TrainObject::from_set(&eval_set, i))
+                .map(|&i| ObjectViews::from_set(&eval_set, i))
                 .collect(),
             eval_gt: eval_idx
                 .iter()

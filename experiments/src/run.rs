@@ -11,7 +11,8 @@ use fieldprobe_backends::Selected;
 use fieldprobe_core::data::dataset::write_atomic;
 use fieldprobe_core::eval::occupancy::MaxPoolPath;
 use fieldprobe_core::field::Field;
-use fieldprobe_core::train::{Components, TrainObject, Trainer, checkpoint, prepare_step};
+use fieldprobe_core::object::ObjectViews;
+use fieldprobe_core::train::{Components, Trainer, checkpoint, prepare_step};
 use serde::{Deserialize, Serialize};
 use tracing::info;
 
@@ -93,7 +94,7 @@ fn mean_of(
 }
 
 /// All training objects of all categories, in one pool.
-fn pool(data: &[CategoryData]) -> Vec<TrainObject> {
+fn pool(data: &[CategoryData]) -> Vec<ObjectViews> {
     data.iter().flat_map(|c| c.train.iter().cloned()).collect()
 }
 

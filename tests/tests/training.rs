@@ -11,12 +11,12 @@ use fieldprobe_core::data::procedural::{generate, object_rng};
 use fieldprobe_core::data::render::RenderOptions;
 use fieldprobe_core::data::voxelize::Voxelizer;
 use fieldprobe_core::field::FieldModelConfig;
+use fieldprobe_core::object::ObjectViews;
 use fieldprobe_core::probe::{
     AssignmentPolicy, MaxPool, ObjectProbe, ProbeBatch, ProbeSpec, SoftMax,
 };
 use fieldprobe_core::train::{
-    Components, PreparedStep, TrainError, TrainObject, Trainer, checkpoint, prepare_step,
-    probe_loss, step_rng,
+    Components, PreparedStep, TrainError, Trainer, checkpoint, prepare_step, probe_loss, step_rng,
 };
 use fieldprobe_models::{
     DecoderConfig, EncoderConfig, PerObjectConfig, SdfConfig, SingleViewConfig,
@@ -27,7 +27,7 @@ use fieldprobe_samplers::{UniformAnchors, UniformRays};
 /// burn's flex RNG is process-wide: tests that seed it must not interleave.
 static SEEDED: Mutex<()> = Mutex::new(());
 
-fn objects(n: usize) -> Vec<TrainObject> {
+fn objects(n: usize) -> Vec<ObjectViews> {
     let opts = RenderOptions {
         supersample: 2,
         ..Default::default()
@@ -43,7 +43,7 @@ fn objects(n: usize) -> Vec<TrainObject> {
             &ObjectRecord::from_mesh(&mesh, Voxelizer::Nmr, &opts),
         );
     }
-    (0..n).map(|i| TrainObject::from_set(&set, i)).collect()
+    (0..n).map(|i| ObjectViews::from_set(&set, i)).collect()
 }
 
 /// A small per-object field: learns one object in tens of steps, so "the loss falls" is quick to
@@ -93,7 +93,7 @@ const SPEC: ProbeSpec = ProbeSpec {
 fn train(
     config: &dyn FieldModelConfig,
     device: &Device,
-    data: &[TrainObject],
+    data: &[ObjectViews],
     steps: usize,
 ) -> Vec<f32> {
     train_with(config, &comps(), device, data, steps)
@@ -103,7 +103,7 @@ fn train_with(
     config: &dyn FieldModelConfig,
     c: &Components,
     device: &Device,
-    data: &[TrainObject],
+    data: &[ObjectViews],
     steps: usize,
 ) -> Vec<f32> {
     let mut t = Trainer::new(config, device, 5);
@@ -326,7 +326,7 @@ fn compacted_batches_give_the_same_loss_as_full_ones() {
         .collect();
     let dev = BackendChoice::Flex.select().device;
     let t = Trainer::new(&model(), &dev, 4);
-    let image = |o: &TrainObject| o.view(0).collect::<Vec<f32>>();
+    let image = |o: &ObjectViews| o.view(0).collect::<Vec<f32>>();
     let images: Vec<f32> = data.iter().flat_map(image).collect();
     let loss = |compact: bool| {
         let prepared = PreparedStep {

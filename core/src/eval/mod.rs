@@ -28,8 +28,8 @@ use crate::data::{Silhouette, TriMesh, VoxelGrid};
 use crate::extract::{ExtractOptions, extract_mesh};
 use crate::field::Field;
 use crate::geometry::{Camera, NUM_VIEWS, PixelPos};
+use crate::object::ObjectViews;
 use crate::probe::{Aggregator, RayValues};
-use crate::train::TrainObject;
 use glam::Vec3;
 use occupancy::{FieldVoxels, MaxPoolPath, VoxelProtocol};
 
@@ -55,7 +55,7 @@ pub fn field_values(
 }
 
 /// Latents `[24, Z]` of all views of an object (none for a per-object field).
-pub fn encode_views(model: &dyn Field, obj: &TrainObject, device: &Device) -> Option<Tensor<2>> {
+pub fn encode_views(model: &dyn Field, obj: &ObjectViews, device: &Device) -> Option<Tensor<2>> {
     let s = obj.image_size;
     let px: Vec<f32> = (0..NUM_VIEWS).flat_map(|v| obj.view(v)).collect();
     model.encode(Tensor::<4>::from_data(
@@ -154,7 +154,7 @@ pub fn in_domain(points: &[f32], field: impl FnOnce(&[f32]) -> Vec<f32>) -> Vec<
 }
 
 /// The 24-view visual hull of an object as a 0/1 field ([`projects_inside`]).
-pub fn hull_field(obj: &TrainObject) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
+pub fn hull_field(obj: &ObjectViews) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
     let sup = &obj.supervision;
     move |points: &[f32]| {
         points
@@ -170,7 +170,7 @@ pub fn hull_field(obj: &TrainObject) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
 /// ([`occupancy::field_voxels`] of [`hull_field`]). Always by the dense definition: the hull is a
 /// 0/1 indicator, on which the fast path's smoothness assumption does not hold, and projecting
 /// the whole lattice costs well under a second.
-pub fn object_hull(obj: &TrainObject, protocol: &VoxelProtocol) -> FieldVoxels {
+pub fn object_hull(obj: &ObjectViews, protocol: &VoxelProtocol) -> FieldVoxels {
     let dense = VoxelProtocol {
         path: MaxPoolPath::Dense,
         ..*protocol

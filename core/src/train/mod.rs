@@ -25,43 +25,13 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::data::dataset::ObjectSet;
 use crate::field::{Field, FieldModel, FieldModelConfig};
 use crate::geometry::NUM_VIEWS;
+use crate::object::ObjectViews;
 use crate::probe::{
     Aggregator, AnchorSampler, ObjectProbe, ProbeBatch, ProbeSpec, RaySampler, RayValues,
-    Supervision,
 };
 use crate::regularize::{FieldQuery, Regularizer};
-
-/// What a training object provides: its 24 input images and its supervision.
-#[derive(Clone, Debug)]
-pub struct TrainObject {
-    /// `[24, 4, S, S]` uint8 in Kato's convention.
-    pub images: Vec<u8>,
-    pub image_size: usize,
-    pub supervision: Supervision,
-}
-
-impl TrainObject {
-    /// Object `i` of a dataset set.
-    pub fn from_set(set: &ObjectSet, i: usize) -> Self {
-        let n = NUM_VIEWS * 4 * set.image_size * set.image_size;
-        Self {
-            images: set.images[i * n..(i + 1) * n].to_vec(),
-            image_size: set.image_size,
-            supervision: Supervision::nmr(set.silhouettes(i)),
-        }
-    }
-
-    /// View `v` as `[4, S, S]` floats in `[0, 1]`.
-    pub fn view(&self, v: usize) -> impl Iterator<Item = f32> + '_ {
-        let n = 4 * self.image_size * self.image_size;
-        self.images[v * n..(v + 1) * n]
-            .iter()
-            .map(|&b| b as f32 / 255.0)
-    }
-}
 
 /// The built components of a run.
 #[derive(Debug)]
@@ -191,7 +161,7 @@ pub fn step_rng(seed: u64, step: usize, slot: usize) -> ChaCha8Rng {
 
 /// Samples and assigns a step's probes on the CPU.
 pub fn prepare_step(
-    data: &[TrainObject],
+    data: &[ObjectViews],
     comps: &Components,
     probe: &ProbeSpec,
     batch: usize,
