@@ -9,6 +9,12 @@
 //!   implementation such as Mesa's lavapipe).
 //! * `auto` — wgpu when a *hardware* GPU adapter exists, otherwise flex (a software rasterizer is
 //!   slower than flex for this workload).
+//!
+//! On Linux wgpu reaches GPUs (and Mesa's software device) through Vulkan; without a Vulkan
+//! driver it falls back to OpenGL on llvmpipe, where cubecl's autotune has hung a test run
+//! forever. So `wgpu` is refused there with a line saying what to install, and `auto` goes to
+//! flex without opening an adapter ([`wgpu_unavailable`]). Tests that drive a device use
+//! [`testing`]: a skip line instead of a hang, and a watchdog on every device test.
 
 use std::fmt;
 use std::str::FromStr;
@@ -16,6 +22,11 @@ use std::str::FromStr;
 pub use burn::tensor::Device;
 use burn::tensor::{DeviceKind, DeviceType};
 use serde::{Deserialize, Serialize};
+
+pub mod testing;
+mod vulkan;
+
+pub use vulkan::wgpu_unavailable;
 
 /// Which backend to run on.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -78,33 +89,52 @@ pub fn hardware_gpu() -> Option<(Device, String)> {
 
 impl BackendChoice {
     /// Resolves the choice to a device (without autodiff; call `.autodiff()` to train).
-    pub fn select(self) -> Selected {
+    ///
+    /// `wgpu` is refused, with what to install, where wgpu has no Vulkan driver to run on
+    /// ([`wgpu_unavailable`]); `auto` then takes flex without opening any wgpu adapter.
+    pub fn select(self) -> Result<Selected, BackendError> {
         match self {
-            Self::Flex => flex(),
+            Self::Flex => Ok(flex()),
             Self::Wgpu => {
+                if let Some(reason) = wgpu_unavailable() {
+                    return Err(BackendError::NoVulkan(reason));
+                }
                 let device = Device::wgpu(DeviceKind::DefaultDevice);
                 let name = device
                     .identity()
                     .map_or_else(|| "default adapter".into(), |i| i.name);
-                Selected {
+                Ok(Selected {
                     device,
                     backend: "wgpu",
                     description: format!("wgpu: {name}"),
-                }
+                })
             }
-            Self::Auto => match hardware_gpu() {
-                Some((device, name)) => Selected {
-                    device,
-                    backend: "wgpu",
-                    description: format!("wgpu: {name} (hardware GPU found)"),
+            Self::Auto => Ok(
+                match wgpu_unavailable().map_or_else(hardware_gpu, |_| None) {
+                    Some((device, name)) => Selected {
+                        device,
+                        backend: "wgpu",
+                        description: format!("wgpu: {name} (hardware GPU found)"),
+                    },
+                    None => Selected {
+                        description: "flex (CPU; no hardware GPU adapter found)".into(),
+                        ..flex()
+                    },
                 },
-                None => Selected {
-                    description: "flex (CPU; no hardware GPU adapter found)".into(),
-                    ..flex()
-                },
-            },
+            ),
         }
     }
+}
+
+/// Why a backend cannot be used here.
+#[derive(Debug, thiserror::Error)]
+pub enum BackendError {
+    #[error(
+        "backend \"wgpu\": {0}. wgpu would fall back to OpenGL, which FieldProbe does not run on \
+         (cubecl's autotune has been seen to wait forever there). Install a Vulkan driver (for a \
+         software device: `apt-get install mesa-vulkan-drivers libvulkan1`) or use backend = \"flex\""
+    )]
+    NoVulkan(String),
 }
 
 fn flex() -> Selected {

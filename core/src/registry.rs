@@ -73,3 +73,20 @@ pub fn components() -> Vec<&'static Component> {
     all.sort_by_key(|c| (c.kind, c.name));
     all
 }
+
+/// Every linked component as Markdown: a section per kind, each component with its provider,
+/// summary and example TOML block (what `experiments list` prints).
+pub fn catalogue() -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let mut last = None;
+    for c in components() {
+        if last != Some(c.kind) {
+            let _ = writeln!(s, "## {:?} — `[{}]`\n", c.kind, c.kind.table());
+            last = Some(c.kind);
+        }
+        let _ = writeln!(s, "### `{}` ({})\n{}\n", c.name, c.provider, c.summary);
+        let _ = writeln!(s, "```toml\n[{}]\n{}\n```\n", c.kind.table(), c.example);
+    }
+    s
+}

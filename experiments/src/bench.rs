@@ -11,10 +11,10 @@
 use std::path::PathBuf;
 
 use anyhow::{Result, bail};
-use fieldprobe_core::train::{Trainer, prepare_step};
+use fieldprobe_core::train::{StepStats, TrainRun, TrainSpec, Trainer};
 
-use crate::data::{ensure_dataset, load};
-use crate::experiment::load_experiment;
+use fieldprobe::experiment::load_experiment;
+use fieldprobe::loader::{ensure_dataset, load};
 
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
@@ -39,8 +39,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.steps == 0 {
         bail!("--steps must be positive");
     }
-    let exp = if crate::variants::has_variants(&args.file) {
-        let file = crate::variants::AblationFile::load(&args.file)?;
+    let exp = if fieldprobe::variants::has_variants(&args.file) {
+        let file = fieldprobe::variants::AblationFile::load(&args.file)?;
         let names: Vec<String> = file.entries.iter().map(|e| e.name.clone()).collect();
         let i = match &args.variant {
             None => 0,
@@ -69,34 +69,39 @@ pub fn run(args: BenchArgs) -> Result<()> {
     ensure_dataset(&exp)?;
     let data = load(&exp)?;
     let objects: Vec<_> = data.iter().flat_map(|c| c.train.iter().cloned()).collect();
-    let selected = exp.backend.select();
+    let selected = exp.backend.select()?;
     let comps = exp
         .components()
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.file.display()))?;
     let spec = exp.probe_spec();
     let mut trainer = Trainer::new(exp.model.as_ref(), &selected.device, exp.seed);
+    // The run's own loop, untimed warm-up steps first; the hook reads each step's timings.
+    let schedule = TrainSpec {
+        steps: args.warmup + args.steps,
+        checkpoint_every: 0,
+        ..exp.train.clone()
+    };
+    let run = TrainRun {
+        objects: &objects,
+        comps: &comps,
+        probe: &spec,
+        schedule: &schedule,
+        uses_image: exp.model.uses_image(),
+        seed: exp.seed,
+    };
     let (mut step_s, mut probe_s, mut device_s) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut points, mut pairs, mut decided) = (0usize, 0usize, 0u64);
-    for i in 0..args.warmup + args.steps {
-        let prepared = prepare_step(
-            &objects,
-            &comps,
-            &spec,
-            exp.train.batch,
-            exp.model.uses_image(),
-            exp.seed,
-            i,
-        );
-        let stats = trainer.step(&prepared, &comps, exp.train.lr)?;
-        if i >= args.warmup {
-            probe_s.push(stats.probe_seconds);
-            device_s.push(stats.device_seconds);
-            step_s.push(stats.probe_seconds + stats.device_seconds);
-            points = stats.points;
-            pairs = stats.pairs;
-            decided = stats.rays as u64 * spec.anchors as u64;
+    let mut last = StepStats::default();
+    let mut time = |_: &Trainer, s: &StepStats| {
+        if s.step > args.warmup {
+            probe_s.push(s.probe_seconds);
+            device_s.push(s.device_seconds);
+            step_s.push(s.probe_seconds + s.device_seconds);
+            last = *s;
         }
-    }
+    };
+    trainer.fit(&run, None, &mut time)?;
+    let (points, pairs) = (last.points, last.pairs);
+    let decided = last.rays as u64 * spec.anchors as u64;
     let (st, pr, dv) = (median(step_s), median(probe_s), median(device_s));
     println!(
         "| experiment | backend | batch | anchors/object | rays/step | median step (s) | probe (s) | device (s) | decoder points/s | pairs decided/s | pairs assigned/step |"

@@ -6,9 +6,10 @@ use std::path::PathBuf;
 use anyhow::Result;
 use tracing::info;
 
-use crate::data::{ensure_dataset, load};
-use crate::run::{Metrics, Training, evaluate_run};
-use crate::run_dir::RunDir;
+use fieldprobe::loader::{ensure_dataset, load};
+use fieldprobe::metrics::{Metrics, Training};
+use fieldprobe::run::evaluate_run;
+use fieldprobe::run_dir::RunDir;
 
 /// Arguments of `eval`.
 #[derive(clap::Args, Debug)]
@@ -45,7 +46,7 @@ pub fn run(args: Args) -> Result<()> {
     std::fs::create_dir_all(&out)?;
     ensure_dataset(&rd.exp)?;
     let data = load(&rd.exp)?;
-    let selected = rd.exp.backend.select();
+    let selected = rd.exp.backend.select()?;
     info!("backend: {}", selected.description);
     let model = rd.model(&selected.device)?;
     // Training time comes from the run's own metrics, when it has them.
@@ -65,7 +66,16 @@ pub fn run(args: Args) -> Result<()> {
         rd.state.step,
         out.display()
     );
-    let outcome = evaluate_run(&rd.exp, model.as_ref(), &data, &out, &selected, &training)?;
+    let outputs = crate::run::ReportOutputs::default();
+    let outcome = evaluate_run(
+        &rd.exp,
+        model.as_ref(),
+        &data,
+        &out,
+        &selected,
+        &training,
+        &outputs,
+    )?;
     println!("{}", outcome.report);
     println!("outputs: {}", out.display());
     Ok(())

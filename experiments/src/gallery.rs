@@ -23,10 +23,10 @@ use fieldprobe_core::field::Field;
 use fieldprobe_core::geometry::NUM_VIEWS;
 use fieldprobe_core::probe::Aggregator;
 
-use crate::data::CategoryData;
-use crate::evaluate::eval_views;
-use crate::experiment::EvalConfig;
 use crate::{pictures, plot};
+use fieldprobe::evaluate::eval_views;
+use fieldprobe::experiment::EvalConfig;
+use fieldprobe::loader::CategoryData;
 
 /// Panel side in pixels.
 const PANEL: u32 = 128;

@@ -1,5 +1,7 @@
-//! The FieldProbe command line, as a library so that crates adding plugins (see
-//! `examples/custom-sampler`) can link them and run the same CLI.
+//! The FieldProbe command line. The pipeline (experiment files, data, training, evaluation,
+//! run directories, ablations) is the `fieldprobe` library; this crate parses commands, shows
+//! progress, and renders reports and pictures (`report`, `gallery`, `plot`, `pictures`,
+//! `ablation`, `contact_sheet`) through the library's `Outputs` and `progress` hooks.
 //!
 //! ```text
 //! experiments FILE.toml [--out DIR] [--resume]     train and evaluate an experiment (with
@@ -18,10 +20,7 @@ pub mod ablation;
 pub mod bench;
 pub mod check_dataset;
 pub mod contact_sheet;
-pub mod data;
 pub mod eval;
-pub mod evaluate;
-pub mod experiment;
 pub mod gallery;
 pub mod list;
 pub mod logging;
@@ -32,16 +31,12 @@ pub mod progress;
 pub mod reconstruct;
 pub mod report;
 pub mod run;
-pub mod run_dir;
-pub mod variants;
 
 use clap::{Parser, Subcommand};
 
-// The explicit plugin link list: typetag and the component registry only see crates that are
-// linked, so every plugin crate is named here, once.
-use fieldprobe_models as _;
-use fieldprobe_regularizers as _;
-use fieldprobe_samplers as _;
+// The shipped plugins are linked through the library (typetag and the component registry only
+// see crates that are linked).
+use fieldprobe as _;
 
 /// The command line.
 #[derive(Parser, Debug)]
@@ -89,6 +84,7 @@ pub fn cli_main() -> anyhow::Result<()> {
         unsafe { std::env::set_var("BURN_DEVICE", "flex") };
     }
     logging::init();
+    fieldprobe::progress::set_display(Box::new(progress::CliDisplay));
     let cli = Cli::parse();
     match (cli.command, cli.run) {
         (Some(Command::Run(args)), _) | (None, Some(args)) => run::run(args),

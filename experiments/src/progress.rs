@@ -1,12 +1,24 @@
 //! Progress of long work with a rate and an ETA: an indicatif bar on a terminal, and — where
 //! stderr is not a terminal (CI, `2> log`), where the bar would stay hidden — a `tracing` line
-//! every [`LOG_EVERY`], so that logs show progress too.
+//! every [`LOG_EVERY`], so that logs show progress too. [`CliDisplay`] is how the library's
+//! progress (`fieldprobe::progress`) is shown by this binary.
 
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use fieldprobe::progress::{Bar, Display};
 use indicatif::{ProgressBar, ProgressStyle};
 use tracing::info;
+
+/// Shows the library's progress as [`Progress`] bars; installed by `cli_main`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CliDisplay;
+
+impl Display for CliDisplay {
+    fn bar(&self, label: &str, len: usize, position: usize) -> Box<dyn Bar> {
+        Box::new(Progress::new(label, len, position))
+    }
+}
 
 /// How often a hidden bar logs a line.
 pub const LOG_EVERY: Duration = Duration::from_secs(30);
@@ -36,6 +48,9 @@ impl Progress {
     pub fn new(label: &str, len: usize, position: usize) -> Self {
         let bar = ProgressBar::new(len as u64).with_style(style(label));
         bar.set_position(position as u64);
+        // The resumed position is work done before this process: without this the rate counts
+        // it as done instantly and the ETA starts far too short.
+        bar.reset_eta();
         let now = Instant::now();
         Self {
             bar,
@@ -44,24 +59,6 @@ impl Progress {
             start: now,
             last_log: Mutex::new(now),
         }
-    }
-
-    /// Moves to `position` with a message (e.g. the loss).
-    pub fn set(&self, position: usize, message: String) {
-        self.bar.set_message(message);
-        self.bar.set_position(position as u64);
-        self.maybe_log();
-    }
-
-    /// Sets the message only.
-    pub fn message(&self, message: String) {
-        self.bar.set_message(message);
-    }
-
-    /// One more unit done.
-    pub fn inc(&self) {
-        self.bar.inc(1);
-        self.maybe_log();
     }
 
     fn maybe_log(&self) {
@@ -86,9 +83,29 @@ impl Progress {
             &self.bar.message(),
         )
     }
+}
+
+impl Bar for Progress {
+    /// Moves to `position` with a message (e.g. the loss).
+    fn set(&self, position: usize, message: String) {
+        self.bar.set_message(message);
+        self.bar.set_position(position as u64);
+        self.maybe_log();
+    }
+
+    /// Sets the message only.
+    fn message(&self, message: String) {
+        self.bar.set_message(message);
+    }
+
+    /// One more unit done.
+    fn inc(&self) {
+        self.bar.inc(1);
+        self.maybe_log();
+    }
 
     /// Clears the bar and logs the total.
-    pub fn finish(&self) {
+    fn finish(&self) {
         self.bar.finish_and_clear();
         let done = self.bar.position().saturating_sub(self.first);
         info!(
@@ -99,7 +116,7 @@ impl Progress {
     }
 
     /// Leaves the bar as it is (on an error).
-    pub fn abandon(&self) {
+    fn abandon(&self) {
         self.bar.abandon();
     }
 }

@@ -30,9 +30,9 @@ use image::{GrayImage, Luma, Rgb, RgbImage};
 use serde::{Deserialize, Serialize};
 use tracing::info;
 
-use crate::evaluate::{reference_surface, score_mesh};
-use crate::run_dir::RunDir;
 use crate::{pictures, plot};
+use fieldprobe::evaluate::{reference_surface, score_mesh};
+use fieldprobe::run_dir::RunDir;
 
 /// Arguments of `reconstruct`.
 #[derive(clap::Args, Debug)]
@@ -162,7 +162,7 @@ pub fn run(args: Args) -> Result<()> {
             args.out.display()
         ),
     }
-    let selected = rd.exp.backend.select();
+    let selected = rd.exp.backend.select()?;
     info!("backend: {}", selected.description);
     let device = &selected.device;
     let model = rd.model(device)?;

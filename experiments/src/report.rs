@@ -2,9 +2,9 @@
 
 use std::fmt::Write;
 
-use crate::experiment::Experiment;
 use crate::gallery::GalleryRow;
-use crate::run::Metrics;
+use fieldprobe::experiment::Experiment;
+use fieldprobe::metrics::Metrics;
 
 fn opt(v: Option<f32>) -> String {
     v.map_or_else(|| "–".into(), |v| format!("{v:.3}"))

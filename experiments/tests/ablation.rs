@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use experiments::ablation::AblationEntry;
-use experiments::variants::AblationFile;
+use fieldprobe::ablation::AblationEntry;
+use fieldprobe::variants::AblationFile;
 
 fn experiments(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_experiments"))
@@ -71,7 +71,7 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
         ]
     );
     for path in &files {
-        assert!(experiments::variants::has_variants(path));
+        assert!(fieldprobe::variants::has_variants(path));
         let f = AblationFile::load(path).unwrap_or_else(|e| panic!("{e:#}"));
         let stem = path.file_stem().unwrap().to_str().unwrap();
         let paper_scale = path.parent().unwrap().ends_with("paper");
@@ -129,11 +129,11 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
                 (16000, 4096, 24)
             );
             assert_eq!((base.train.batch, base.train.lr), (8, 1e-4));
-            assert_eq!(base.data.dir, Path::new("data/nmr"));
+            assert_eq!(base.data.dir, Path::new("datasets/nmr"));
         } else {
             assert_eq!(
                 base.data.dir,
-                Path::new(&format!("data/ablation-{category}"))
+                Path::new(&format!("datasets/ablation-{category}"))
             );
             let g = base.data.generate.expect("CPU presets generate their data");
             assert_eq!((g.train, g.test), (64, 8));

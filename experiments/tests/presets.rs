@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use experiments::experiment::{Experiment, load_experiment};
+use fieldprobe::experiment::{Experiment, load_experiment};
 use toml::{Table, Value};
 
 fn resolved(exp: &Experiment) -> Table {
@@ -61,7 +61,7 @@ fn the_main_command_and_paper_toml_run_the_full_method() {
 /// variant of an ablation file), so a renamed key or component breaks a test, not a user's run.
 #[test]
 fn every_shipped_experiment_file_loads() {
-    use experiments::variants::{AblationFile, has_variants};
+    use fieldprobe::variants::{AblationFile, has_variants};
     fn walk(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
         for e in std::fs::read_dir(dir).unwrap().flatten() {
             let p = e.path();

@@ -15,6 +15,9 @@
 //! initialized from the device seed; see [`Trainer::new`]).
 
 pub mod checkpoint;
+mod fit;
+
+pub use fit::{NoHooks, TrainHooks, TrainRun, log_interval};
 
 use std::time::Instant;
 
@@ -139,6 +142,9 @@ pub enum TrainError {
         sil: f32,
         reg: f32,
     },
+    /// Writing a checkpoint failed (the error names the file).
+    #[error(transparent)]
+    Checkpoint(#[from] crate::Error),
 }
 
 /// A step's host-side inputs.

@@ -257,29 +257,6 @@ impl DatasetInfo {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn atomic_write_keeps_the_old_file_on_error() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("f.txt");
-        write_atomic(&p, |w| w.write_all(b"good")).unwrap();
-        let e = write_atomic(&p, |w| {
-            w.write_all(b"half")?;
-            Err(std::io::Error::other("boom"))
-        });
-        assert!(e.is_err());
-        assert_eq!(std::fs::read_to_string(&p).unwrap(), "good");
-        assert_eq!(
-            std::fs::read_dir(dir.path()).unwrap().count(),
-            1,
-            "no temporary left"
-        );
-    }
-}
-
 /// A dataset layout on disk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -10,7 +10,7 @@ use custom_model as _;
 fn film_toml_trains_and_writes_metrics() {
     let dir = tempfile::tempdir().unwrap();
     let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("film.toml");
-    let out = experiments::run::run_shrunk(&shipped, dir.path(), 6).unwrap();
+    let out = fieldprobe::launch::run_shrunk(&shipped, dir.path(), 6).unwrap();
     let metrics: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     assert_eq!(metrics["steps"], 6);

@@ -1,7 +1,7 @@
-//! The FieldProbe CLI with the `stratified` sampler linked in.
+//! Runs an experiment file through the fieldprobe library with the `stratified` sampler linked in.
 
 use custom_sampler as _;
 
 fn main() -> anyhow::Result<()> {
-    experiments::cli_main()
+    fieldprobe::launch::main_with_linked_plugins()
 }

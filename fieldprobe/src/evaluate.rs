@@ -23,8 +23,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::data::CategoryData;
 use crate::experiment::EvalConfig;
+use crate::loader::CategoryData;
 
 /// Metrics of one category. Every IoU is at 32³ in the NMR protocol: a field's voxel is
 /// occupied when φ reaches ½ anywhere in it (max over `eval.subsamples³` points; see
@@ -162,7 +162,7 @@ pub fn evaluate(
 ) -> Result<BTreeMap<String, CategoryMetrics>> {
     let views = eval_views(cfg.views);
     let total: usize = data.iter().map(|c| c.eval.len()).sum();
-    let bar = crate::progress::Progress::new("eval", total, 0);
+    let bar = crate::progress::bar("eval", total, 0);
     let mut out = BTreeMap::new();
     for cat in data {
         let protocol = cfg.protocol();

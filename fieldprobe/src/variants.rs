@@ -362,7 +362,7 @@ paper_table = "Table 4, chair"
 seed = 3
 
 [data]
-dir = "data/x"
+dir = "datasets/x"
 categories = ["chair"]
 
 [model]

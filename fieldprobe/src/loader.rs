@@ -9,6 +9,7 @@ use fieldprobe_core::data::{Category, VoxelGrid};
 use fieldprobe_core::object::ObjectViews;
 
 use crate::experiment::{DataConfig, Experiment};
+use crate::make::{DatasetSpec, make_dataset};
 
 /// One category's objects.
 #[derive(Debug)]
@@ -39,7 +40,8 @@ pub fn ensure_dataset(exp: &Experiment) -> Result<()> {
             .join(","),
         d.dir.display()
     );
-    crate::make_dataset::make_procedural(&d.dir, &d.categories, [g.train, g.val, g.test], g.seed)
+    let spec = DatasetSpec::procedural(&d.dir, &d.categories, [g.train, g.val, g.test], g.seed);
+    make_dataset(&spec).map(|_| ())
 }
 
 fn read(d: &DataConfig, category: Category, split: Split) -> Result<ObjectSet> {

@@ -7,7 +7,7 @@
 //! backend = "auto"          # auto | wgpu | flex
 //!
 //! [data]
-//! dir = "data/quickstart"    # relative to the working directory
+//! dir = "datasets/quickstart"    # relative to the working directory
 //! categories = ["chair", "table"]
 //! generate = { train = 48, val = 0, test = 8, seed = 0 }   # made on first run if missing
 //!

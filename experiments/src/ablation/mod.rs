@@ -1,0 +1,41 @@
+//! An ablation's report and pictures (the runner is `fieldprobe::ablation`):
+//!
+//! ```text
+//! runs/<name>/
+//!   report.md              the comparison table, ordering vs the paper, pictures
+//!   training_curves.png    the loss history of every finished entry
+//!   samples.png            rays and anchors of the base's samplers vs a comparison sampler
+//! ```
+
+mod figures;
+mod report;
+#[cfg(test)]
+mod tests;
+
+pub use figures::*;
+pub use report::*;
+
+use std::path::Path;
+
+use anyhow::Result;
+use fieldprobe::ablation::entry::Status;
+use fieldprobe::data::dataset::write_atomic;
+use fieldprobe::variants::AblationFile;
+
+use crate::plot;
+
+/// Writes `training_curves.png` and `report.md` (last) for the current state; returns the
+/// report's text.
+pub fn write_report(
+    root: &Path,
+    file: &AblationFile,
+    status: &[Status],
+    samples: &SamplesInfo,
+) -> Result<String> {
+    plot::write_png(&root.join("training_curves.png"), &training_curves(status))?;
+    let report = render_report(file, status, samples);
+    write_atomic(&root.join("report.md"), |w| {
+        std::io::Write::write_all(w, report.as_bytes())
+    })?;
+    Ok(report)
+}

@@ -1,0 +1,293 @@
+//! Running an ablation file (an experiment with `[[variants]]`, see [`crate::variants`]): the base
+//! and then each variant is trained and evaluated into its own run directory, and one comparison
+//! is written beside them:
+//!
+//! ```text
+//! runs/<name>/
+//!   ablation.toml          the file as run
+//!   <slug>/                one ordinary run directory per entry (config.toml, checkpoints/,
+//!                          metrics.json, report.md), the base first
+//!   ablation.json          the finished entries, base first (rewritten after each one)
+//!   report.md              (the CLI's, through `Outputs`) the comparison table, ordering vs
+//!   training_curves.png    the paper, the loss history of every finished entry, and the rays
+//!   samples.png            and anchors of the base's samplers vs a comparison sampler
+//! ```
+//!
+//! All entries share the dataset (generated once, loaded once per distinct `[data]`). With
+//! `--resume` an entry whose `metrics.json` exists is skipped, the one with a checkpoint continues,
+//! and the rest start; without it, a directory already holding any entry is refused. An entry that
+//! fails (e.g. a non-finite loss) is reported, the others still run, and the command exits with
+//! an error at the end.
+//!
+//! # Ordering vs the paper
+//!
+//! The paper's numbers are ShapeNet IoUs at full scale; ours are CPU-scale runs on procedural
+//! data, so only orderings are compared ([`compare`]). For each pair of finished entries with
+//! paper numbers: the paper orders them by its IoUs (equal numbers: a paper tie, not counted); our
+//! order is the sign of the difference of mean IoUs, and it counts as *resolved* only if that
+//! difference exceeds twice the standard error of the paired per-object IoU differences (the
+//! same evaluation objects under both entries) and at least [`MIN_RESOLVED_DIFF`]. A resolved
+//! pair agrees or disagrees with the paper; an unresolved one is within noise and is reported as
+//! such, with its sign. The noise bar covers the choice of evaluation objects only, not training
+//! noise (another seed could reorder close rows), which the report says.
+
+pub mod compare;
+pub mod entry;
+pub mod fixtures;
+#[cfg(test)]
+mod tests;
+
+pub use compare::*;
+pub use entry::*;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, anyhow, bail};
+use fieldprobe_core::data::dataset::write_atomic;
+use fieldprobe_core::train::checkpoint;
+use tracing::{error, info};
+
+use crate::experiment::{DataConfig, Experiment};
+use crate::loader::{CategoryData, ensure_dataset, load};
+use crate::metrics::Metrics;
+use crate::outputs::Outputs;
+use crate::run::{FileOutcome, RunOptions, prepare_dir, run_one};
+use crate::variants::{AblationFile, Variant};
+
+/// Runs an ablation file (one with `[[variants]]`): every entry and seed, or only those that
+/// `opts.variant` and `opts.seed` name. `outputs` writes the comparison after each entry.
+pub fn run(path: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result<FileOutcome> {
+    let file = AblationFile::load(path)?;
+    let args = opts;
+    let root = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("runs").join(&file.name));
+    let seeds = file.run_seeds();
+    if let Some(v) = &args.variant
+        && !file.entries.iter().any(|e| &e.name == v || &e.slug == v)
+    {
+        bail!(
+            "{}: no entry named '{v}' (entries: {})",
+            path.display(),
+            file.entries
+                .iter()
+                .map(|e| e.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    if let Some(s) = args.seed
+        && !seeds.contains(&s)
+    {
+        bail!(
+            "{}: --seed {s} is not one of the file's seeds {seeds:?}",
+            path.display()
+        );
+    }
+    // Every (entry, seed) run, with its experiment and directory.
+    let mut runs: Vec<Vec<(u64, Experiment, PathBuf)>> = Vec::new();
+    for e in &file.entries {
+        let mut per = Vec::new();
+        for &seed in &seeds {
+            let exp = with_seed(&e.experiment, seed)
+                .with_context(|| format!("{}: variant '{}'", path.display(), e.name))?;
+            per.push((seed, exp, file.run_dir(&root, e, seed)));
+        }
+        runs.push(per);
+    }
+
+    // Check everything before writing anything.
+    for (e, per) in file.entries.iter().zip(&runs) {
+        for (seed, exp, dir) in per {
+            check_run_dir(path, args, e, *seed, exp, dir, &root)?;
+        }
+    }
+    std::fs::create_dir_all(&root).with_context(|| format!("cannot create {}", root.display()))?;
+    let source = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    write_atomic(&root.join("ablation.toml"), |w| {
+        std::io::Write::write_all(w, &source)
+    })?;
+
+    let mut cache = DataCache::default();
+    let base = &file.base().experiment;
+    outputs.ablation_started(&root, &file, cache.get(base)?)?;
+
+    let mut status = vec![Status::Pending; file.entries.len()];
+    let mut report = String::new();
+    let total = file.entries.len() * seeds.len();
+    let mut k = 0;
+    for (i, (e, per)) in file.entries.iter().zip(&runs).enumerate() {
+        let mut done = Vec::new();
+        let mut failure = None;
+        let chosen = args
+            .variant
+            .as_ref()
+            .is_none_or(|v| v == &e.name || v == &e.slug);
+        let mut skipped = false;
+        for (seed, exp, dir) in per {
+            k += 1;
+            let finished = dir.join("metrics.json").is_file();
+            let wanted = chosen && args.seed.is_none_or(|s| s == *seed);
+            if !finished && !wanted {
+                skipped = true;
+                continue;
+            }
+            let outcome = if finished {
+                info!(
+                    "run {k}/{total} '{}' seed {seed}: finished, skipping ({})",
+                    e.name,
+                    dir.display()
+                );
+                read_finished(*seed, dir)
+            } else {
+                info!(
+                    "run {k}/{total} '{}' seed {seed} → {}",
+                    e.name,
+                    dir.display()
+                );
+                let resume = checkpoint::latest(&dir.join("checkpoints"))?.is_some();
+                (|| {
+                    let data = cache.get(exp)?;
+                    prepare_dir(exp, dir)?;
+                    let o = run_one(exp, path, data, dir, resume, outputs)?;
+                    info!(
+                        "'{}' seed {seed}: mean IoU {:.3}",
+                        e.name, o.metrics.mean_iou
+                    );
+                    Ok(SeedRun {
+                        seed: *seed,
+                        metrics: o.metrics,
+                        history: o.history,
+                    })
+                })()
+            };
+            match outcome {
+                Ok(r) => done.push(r),
+                Err(err) => {
+                    let msg = format!("seed {seed}: {err:#}");
+                    error!("variant '{}' failed: {msg}", e.name);
+                    failure = Some(msg);
+                    break;
+                }
+            }
+        }
+        status[i] = match failure {
+            Some(msg) => Status::Failed(msg),
+            None if skipped => Status::Pending,
+            None => Status::Finished(Box::new(AblationEntry::new(e, &done))),
+        };
+        write_ablation_json(&root, &status)?;
+        report = outputs.ablation(&root, &file, &status)?;
+    }
+    let failed = file
+        .entries
+        .iter()
+        .zip(&status)
+        .filter(|(_, s)| matches!(s, Status::Failed(_)))
+        .map(|(e, _)| e.name.clone())
+        .collect();
+    Ok(FileOutcome {
+        dir: root,
+        report,
+        failed,
+    })
+}
+
+/// Datasets loaded so far, one per distinct `[data]`.
+#[derive(Default)]
+struct DataCache {
+    sets: Vec<(DataConfig, Vec<CategoryData>)>,
+}
+
+impl DataCache {
+    fn get(&mut self, exp: &Experiment) -> Result<&[CategoryData]> {
+        let i = match self.sets.iter().position(|(d, _)| *d == exp.data) {
+            Some(i) => i,
+            None => {
+                ensure_dataset(exp)?;
+                self.sets.push((exp.data.clone(), load(exp)?));
+                self.sets.len() - 1
+            }
+        };
+        Ok(&self.sets[i].1)
+    }
+}
+
+/// `exp` with its training seed replaced (through its resolved TOML, so that the copy is
+/// validated like a file).
+fn with_seed(exp: &Experiment, seed: u64) -> Result<Experiment> {
+    let mut table: toml::Table = toml::from_str(&exp.to_toml()?)?;
+    table.insert("seed".into(), toml::Value::Integer(seed as i64));
+    let copy: Experiment = toml::from_str(&toml::to_string(&table)?)?;
+    copy.validate().map_err(|e| anyhow!(e))?;
+    Ok(copy)
+}
+
+/// Refuses to run over a run directory that holds results, unless resuming with the same
+/// configuration.
+fn check_run_dir(
+    path: &Path,
+    args: &RunOptions,
+    e: &Variant,
+    seed: u64,
+    exp: &Experiment,
+    dir: &Path,
+    root: &Path,
+) -> Result<()> {
+    let done = dir.join("metrics.json").is_file();
+    let ckpt = checkpoint::latest(&dir.join("checkpoints"))?;
+    if !args.resume && (done || ckpt.is_some()) {
+        bail!(
+            "{} already holds variant '{}' seed {seed} ({}); pass --resume to continue the ablation (finished runs are skipped) or --out DIR to start a new one",
+            root.display(),
+            e.name,
+            if done {
+                "finished".to_string()
+            } else {
+                format!("checkpoint at step {}", ckpt.as_ref().map_or(0, |c| c.step))
+            }
+        );
+    }
+    let config = dir.join("config.toml");
+    if args.resume && (done || ckpt.is_some()) && config.is_file() {
+        let old = std::fs::read_to_string(&config)
+            .with_context(|| format!("cannot read {}", config.display()))?;
+        if old != exp.to_toml()? {
+            bail!(
+                "{}: variant '{}' was run with a different configuration ({}); restore the file, remove {} to rerun it, or pass --out DIR",
+                path.display(),
+                e.name,
+                config.display(),
+                dir.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A run that finished in an earlier invocation.
+fn read_finished(seed: u64, dir: &Path) -> Result<SeedRun> {
+    let path = dir.join("metrics.json");
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let metrics: Metrics =
+        serde_json::from_str(&text).map_err(|err| anyhow!("{}: {err}", path.display()))?;
+    let history = checkpoint::latest(&dir.join("checkpoints"))?
+        .map(|s| s.history)
+        .unwrap_or_default();
+    Ok(SeedRun {
+        seed,
+        metrics,
+        history,
+    })
+}
+
+/// Writes `ablation.json`: the finished entries, base first.
+pub fn write_ablation_json(root: &Path, status: &[Status]) -> Result<()> {
+    let json = serde_json::to_string_pretty(&finished(status))?;
+    write_atomic(&root.join("ablation.json"), |w| {
+        std::io::Write::write_all(w, json.as_bytes())
+    })?;
+    Ok(())
+}
