@@ -1,136 +1,134 @@
-//! Logs through `tracing`: a small subscriber that prints events as
-//! `elapsed LEVEL message key=value…` on stderr.
+//! Logs through `tracing-subscriber`'s `fmt` layer on stderr, with the `log` bridge on, so that
+//! the warnings burn, cubecl and wgpu emit through the `log` crate are shown too.
 //!
-//! Why not `tracing-subscriber`'s `fmt`: burn already links `tracing-subscriber` with only its
-//! `std` feature, and turning on `fmt` changes that crate's features and with them the build hash
-//! of all of burn beneath it — a 25-minute rebuild for a log formatter. This one is enough for a
-//! command line.
+//! `tracing-subscriber` is already built with `fmt`, `env-filter`, `ansi` and `tracing-log` for
+//! burn's own dependencies (`cargo tree -e features -i tracing-subscriber`), so using it here
+//! compiles nothing of burn again.
 //!
-//! The level comes from `FIELDPROBE_LOG` (`error`, `warn`, `info` — the default —, `debug`,
-//! `trace`) and applies to FieldProbe's own crates; other crates (burn, cubecl, wgpu) log only
-//! warnings and errors.
+//! `FIELDPROBE_LOG` sets the filter. A bare level (`error`, `warn`, `info` — the default —,
+//! `debug`, `trace`) applies to FieldProbe's own crates, while other crates (burn, cubecl, wgpu)
+//! log only warnings and errors; anything else is read as an `EnvFilter` directive list
+//! (`warn,fieldprobe_core=trace,wgpu_core=info`).
 
-use std::fmt::Write as _;
-use std::io::Write as _;
-use std::time::Instant;
+use tracing::Level;
+use tracing_subscriber::EnvFilter;
+use tracing_subscriber::fmt::MakeWriter;
+use tracing_subscriber::fmt::time::Uptime;
+use tracing_subscriber::util::SubscriberInitExt;
 
-use tracing::field::{Field, Visit};
-use tracing::span::{Attributes, Id, Record};
-use tracing::{Event, Level, Metadata, Subscriber};
+/// Crate-name prefixes whose `info`/`debug` events a bare level applies to.
+const OWN: [&str; 4] = [
+    "experiments",
+    "fieldprobe",
+    "custom_sampler",
+    "custom_model",
+];
 
-/// The subscriber (see the module docs).
-#[derive(Debug)]
-pub struct Logger {
-    level: Level,
-    start: Instant,
+/// The filter `FIELDPROBE_LOG`'s value (`None`: unset) asks for; an unparsable value is reported
+/// and the default used.
+pub fn filter(spec: Option<&str>) -> EnvFilter {
+    let spec = spec.map(str::trim).filter(|s| !s.is_empty());
+    let directives = match spec {
+        None => own_at(Level::INFO),
+        Some(s) => match s.parse::<Level>() {
+            Ok(level) => own_at(level),
+            Err(_) => s.to_string(),
+        },
+    };
+    EnvFilter::try_new(&directives).unwrap_or_else(|e| {
+        eprintln!("FIELDPROBE_LOG='{directives}' is not a level or filter ({e}); using info");
+        EnvFilter::new(own_at(Level::INFO))
+    })
 }
 
-/// Crates whose `info`/`debug` events are shown.
-const OWN: [&str; 3] = ["experiments", "fieldprobe", "custom_sampler"];
-
-impl Logger {
-    /// A logger at `level` for FieldProbe's crates.
-    pub fn new(level: Level) -> Self {
-        Self {
-            level,
-            start: Instant::now(),
-        }
-    }
-
-    /// The level `FIELDPROBE_LOG` names, else `info`; an unknown name is reported and ignored.
-    pub fn level_from_env() -> Level {
-        match std::env::var("FIELDPROBE_LOG") {
-            Ok(v) => v.trim().parse().unwrap_or_else(|_| {
-                eprintln!("FIELDPROBE_LOG='{v}' is not a level (error, warn, info, debug, trace); using info");
-                Level::INFO
-            }),
-            Err(_) => Level::INFO,
-        }
-    }
+/// `warn` for everything, `level` for FieldProbe's crates.
+fn own_at(level: Level) -> String {
+    let level = level.as_str().to_ascii_lowercase();
+    let own: Vec<String> = OWN.iter().map(|c| format!("{c}={level}")).collect();
+    format!("warn,{}", own.join(","))
 }
 
-/// Installs the logger as the global default (once; later calls do nothing).
+/// Installs the logger on `writer` as the global default, with the `log` bridge (once; later
+/// calls do nothing).
+pub fn init_with<W>(writer: W, spec: Option<&str>)
+where
+    W: for<'a> MakeWriter<'a> + Send + Sync + 'static,
+{
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter(spec))
+        .with_timer(Uptime::default())
+        .with_target(false)
+        .with_ansi(false)
+        .with_writer(writer)
+        .finish()
+        .try_init();
+}
+
+/// Installs the logger on stderr with `FIELDPROBE_LOG`'s filter.
 pub fn init() {
-    let _ = tracing::subscriber::set_global_default(Logger::new(Logger::level_from_env()));
-}
-
-/// Collects an event's fields: `message` first, then `key=value`.
-#[derive(Default)]
-struct Line {
-    message: String,
-    fields: String,
-}
-
-impl Visit for Line {
-    fn record_str(&mut self, field: &Field, value: &str) {
-        if field.name() == "message" {
-            self.message.push_str(value);
-        } else {
-            let _ = write!(self.fields, " {}={}", field.name(), value);
-        }
-    }
-
-    fn record_debug(&mut self, field: &Field, value: &dyn std::fmt::Debug) {
-        if field.name() == "message" {
-            let _ = write!(self.message, "{value:?}");
-        } else {
-            let _ = write!(self.fields, " {}={:?}", field.name(), value);
-        }
-    }
-}
-
-impl Subscriber for Logger {
-    fn enabled(&self, metadata: &Metadata<'_>) -> bool {
-        let own = OWN.iter().any(|c| metadata.target().starts_with(c));
-        let max = if own { self.level } else { Level::WARN };
-        // In tracing, "more verbose" compares greater.
-        *metadata.level() <= max
-    }
-
-    fn new_span(&self, _span: &Attributes<'_>) -> Id {
-        Id::from_u64(1)
-    }
-
-    fn record(&self, _span: &Id, _values: &Record<'_>) {}
-
-    fn record_follows_from(&self, _span: &Id, _follows: &Id) {}
-
-    fn event(&self, event: &Event<'_>) {
-        let mut line = Line::default();
-        event.record(&mut line);
-        let meta = event.metadata();
-        let level = match *meta.level() {
-            Level::INFO => String::new(),
-            l => format!("{l} "),
-        };
-        let t = self.start.elapsed().as_secs_f64();
-        let _ = writeln!(
-            std::io::stderr().lock(),
-            "[{t:7.1}s] {level}{}{}",
-            line.message,
-            line.fields
-        );
-    }
-
-    fn enter(&self, _span: &Id) {}
-
-    fn exit(&self, _span: &Id) {}
+    let spec = std::env::var("FIELDPROBE_LOG").ok();
+    init_with(std::io::stderr, spec.as_deref());
 }
 
 #[cfg(test)]
 mod tests {
+    use std::io::Write;
+    use std::sync::{Arc, Mutex};
+
     use super::*;
 
+    #[derive(Clone, Default)]
+    struct Captured(Arc<Mutex<Vec<u8>>>);
+
+    impl Write for Captured {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.0.lock().unwrap().extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl<'a> MakeWriter<'a> for Captured {
+        type Writer = Captured;
+        fn make_writer(&'a self) -> Self::Writer {
+            self.clone()
+        }
+    }
+
+    /// The whole path as the binary has it: a `log::warn!` from wgpu reaches the output, a
+    /// `log::info!` from it does not, and FieldProbe's own `info` does.
     #[test]
-    fn own_crates_log_at_the_level_others_only_warn() {
-        let logger = Logger::new(Level::INFO);
-        let dispatch = tracing::Dispatch::new(logger);
-        tracing::dispatcher::with_default(&dispatch, || {
-            // This test's target is `experiments::logging::tests`: an own crate.
-            assert!(tracing::enabled!(Level::INFO));
-            assert!(!tracing::enabled!(Level::DEBUG));
-            assert!(tracing::enabled!(target: "wgpu_core", Level::WARN));
-            assert!(!tracing::enabled!(target: "wgpu_core", Level::INFO));
-        });
+    fn warnings_through_log_are_shown_and_own_crates_log_at_the_level() {
+        let out = Captured::default();
+        init_with(out.clone(), Some("info"));
+        log::warn!(target: "wgpu_core::device", "adapter lost");
+        log::info!(target: "wgpu_core::device", "adapter details");
+        tracing::info!("training started");
+        tracing::debug!("too verbose");
+        let text = String::from_utf8(out.0.lock().unwrap().clone()).unwrap();
+        assert!(
+            text.contains("WARN") && text.contains("adapter lost"),
+            "{text}"
+        );
+        assert!(!text.contains("adapter details"), "{text}");
+        assert!(text.contains("training started"), "{text}");
+        assert!(!text.contains("too verbose"), "{text}");
+    }
+
+    #[test]
+    fn a_bare_level_applies_to_own_crates_and_a_directive_list_is_taken_as_is() {
+        assert_eq!(
+            own_at(Level::DEBUG),
+            "warn,experiments=debug,fieldprobe=debug,custom_sampler=debug,custom_model=debug"
+        );
+        let f = filter(Some("warn,fieldprobe_core=trace")).to_string();
+        assert!(
+            f.contains("fieldprobe_core=trace") && f.contains("warn"),
+            "{f}"
+        );
+        // Not a filter at all: the default, not a panic.
+        let _ = filter(Some("=="));
     }
 }
