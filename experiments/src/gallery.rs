@@ -24,7 +24,7 @@ use fieldprobe_core::geometry::NUM_VIEWS;
 use fieldprobe_core::probe::Aggregator;
 
 use crate::{pictures, plot};
-use fieldprobe::evaluate::eval_views;
+use fieldprobe::evaluate::{GalleryMeshes, eval_views};
 use fieldprobe::experiment::EvalConfig;
 use fieldprobe::loader::CategoryData;
 
@@ -49,12 +49,14 @@ pub struct GalleryRow {
 
 /// Writes `dir/gallery.png` of the first `cfg.gallery_objects` test objects of each category
 /// and their inputs to `dir/inputs/`; returns its rows (none, and no file, when
-/// `gallery_objects` is 0).
+/// `gallery_objects` is 0). Meshes come from `meshes` (those evaluation extracted) and are
+/// extracted here only when evaluation made none.
 pub fn write(
     dir: &Path,
     model: &dyn Field,
     aggregator: &dyn Aggregator,
     data: &[CategoryData],
+    meshes: &GalleryMeshes,
     cfg: &EvalConfig,
     device: &Device,
 ) -> Result<Vec<GalleryRow>> {
@@ -91,8 +93,16 @@ pub fn write(
                     pictures::silhouette_overlay(&pred, &obj.supervision.silhouettes[w], 1);
                 row.push(pictures::fit(&overlay, PANEL));
             }
-            let mesh = extract_field_mesh(model, z.as_ref(), &cfg.extract, device);
-            row.extend(pictures::turntable(&mesh, FRAMES, PANEL as usize));
+            let key = (cat.category.name().to_string(), id.clone());
+            let extracted;
+            let mesh = match meshes.get(&key) {
+                Some(m) => m,
+                None => {
+                    extracted = extract_field_mesh(model, z.as_ref(), &cfg.extract, device);
+                    &extracted
+                }
+            };
+            row.extend(pictures::turntable(mesh, FRAMES, PANEL as usize));
             panels.push(row);
             rows.push(GalleryRow {
                 category: cat.category.name().into(),

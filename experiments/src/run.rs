@@ -102,6 +102,7 @@ pub fn write_run_report(run: &FinishedRun<'_>) -> Result<String> {
         run.model,
         run.aggregator,
         run.data,
+        run.meshes,
         &run.exp.eval,
         run.device,
     )?;

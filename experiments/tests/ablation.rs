@@ -111,7 +111,7 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
             path.display()
         );
         // The full model: importance sampling, boundary-aware, p = 0.8, Δd = 0.03.
-        assert_eq!(json(&base.probe.assignment), "\"boundary_aware\"");
+        assert_eq!(json(&base.probe.spec.assignment), "\"boundary_aware\"");
         assert!(json(&base.probe.ray_sampler).contains("\"importance\""));
         assert!(json(&base.probe.anchor_sampler).contains("\"importance\""));
         let reg = json(&base.regularizer);
@@ -122,9 +122,9 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
         if paper_scale {
             assert_eq!(
                 (
-                    base.probe.anchors,
-                    base.probe.rays_per_view,
-                    base.probe.views
+                    base.probe.spec.anchors,
+                    base.probe.spec.rays_per_view,
+                    base.probe.spec.views
                 ),
                 (16000, 4096, 24)
             );
@@ -149,7 +149,7 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
             let changed = [
                 json(&x.probe.ray_sampler) != json(&base.probe.ray_sampler),
                 json(&x.probe.anchor_sampler) != json(&base.probe.anchor_sampler),
-                x.probe.assignment != base.probe.assignment,
+                x.probe.spec.assignment != base.probe.spec.assignment,
                 json(&x.regularizer) != json(&base.regularizer),
             ];
             assert_eq!(
@@ -170,9 +170,9 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
                         assert_eq!(s, r#"{"type":"normal","sigma":0.4}"#);
                     }
                 }
-                "no boundary-aware" => assert_eq!(json(&x.probe.assignment), "\"naive\""),
+                "no boundary-aware" => assert_eq!(json(&x.probe.spec.assignment), "\"naive\""),
                 "boundary-aware (hull reading)" => {
-                    assert_eq!(json(&x.probe.assignment), "\"boundary_aware_hull\"")
+                    assert_eq!(json(&x.probe.spec.assignment), "\"boundary_aware_hull\"")
                 }
                 "no regularizer" => assert_eq!(reg, r#"{"type":"none"}"#),
                 "p=2.0" | "p=1.0" => {

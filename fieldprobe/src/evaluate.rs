@@ -148,6 +148,20 @@ pub fn score_mesh(
     (iou, surface)
 }
 
+/// What [`evaluate`] measured, and the meshes a report can show without extracting them again.
+#[derive(Debug, Default)]
+pub struct Evaluation {
+    /// Per category name.
+    pub per_category: BTreeMap<String, CategoryMetrics>,
+    /// The mesh of the first evaluated view of each of the first `eval.gallery_objects` test
+    /// objects per category (what `gallery.png` shows), keyed by `(category name, object id)`;
+    /// empty when `eval.mesh_views` is 0 (no meshes were extracted).
+    pub gallery_meshes: GalleryMeshes,
+}
+
+/// Meshes by `(category name, object id)`.
+pub type GalleryMeshes = BTreeMap<(String, String), TriMesh>;
+
 /// Evaluates `model` (in evaluation mode, on the plain `device`) on every category (field
 /// silhouettes through `aggregator`, the run's); `mesh_dir`
 /// is the dataset's `meshes/` folder (ground-truth meshes for the surface metrics), if any.
@@ -159,8 +173,9 @@ pub fn evaluate(
     per_object_fit: bool,
     mesh_dir: Option<&Path>,
     device: &Device,
-) -> Result<BTreeMap<String, CategoryMetrics>> {
+) -> Result<Evaluation> {
     let views = eval_views(cfg.views);
+    let mut gallery_meshes = BTreeMap::new();
     let total: usize = data.iter().map(|c| c.eval.len()).sum();
     let bar = crate::progress::bar("eval", total, 0);
     let mut out = BTreeMap::new();
@@ -222,7 +237,7 @@ pub fn evaluate(
                         .collect(),
                     None => vec![(0, None)],
                 };
-                for (i, z) in meshed {
+                for (k, (i, z)) in meshed.into_iter().enumerate() {
                     let mesh = extract_field_mesh(model, z.as_ref(), &cfg.extract, device);
                     let (iou, surface) =
                         score_mesh(&mesh, gt, gt_surf.as_ref(), cfg, 1000 + o as u64);
@@ -232,6 +247,11 @@ pub fn evaluate(
                         empty: mesh.faces.is_empty(),
                         surface,
                     });
+                    // The first meshed view is the first evaluated one: the gallery's.
+                    if k == 0 && o < cfg.gallery_objects {
+                        let key = (cat.category.name().to_string(), id.clone());
+                        gallery_meshes.insert(key, mesh);
+                    }
                 }
             }
             if per_object_fit {
@@ -276,7 +296,10 @@ pub fn evaluate(
         );
     }
     bar.finish();
-    Ok(out)
+    Ok(Evaluation {
+        per_category: out,
+        gallery_meshes,
+    })
 }
 
 /// A category's per-object (`iou`, `hull`, …) and per-prediction (`centre`, `outside`) scores.

@@ -37,7 +37,7 @@ use fieldprobe_core::eval::occupancy::{MaxPoolPath, VoxelProtocol};
 use fieldprobe_core::extract::ExtractOptions;
 use fieldprobe_core::field::FieldModelConfig;
 use fieldprobe_core::probe::{
-    AggregatorConfig, AnchorSamplerConfig, AssignmentPolicy, MaxPool, ProbeSpec, RaySamplerConfig,
+    AggregatorConfig, AnchorSamplerConfig, MaxPool, ProbeSpec, RaySamplerConfig,
 };
 use fieldprobe_core::regularize::RegularizerConfig;
 use fieldprobe_core::train::{Components, TrainSpec};
@@ -123,35 +123,56 @@ pub struct GenerateConfig {
     pub seed: u64,
 }
 
-/// The probing step: how many anchors and rays, which samplers, assignment and aggregator.
+/// The `[probe]` table: how many anchors and rays and how they are assigned (core's
+/// [`ProbeSpec`], whose keys sit directly in the table), and the components that sample and
+/// aggregate them.
+///
+/// One table, two types: the spec is what the probing code reads, the components are built into
+/// runtime objects. Deserialized through a TOML table so that both keep rejecting unknown keys
+/// (serde's `flatten` cannot do that).
 #[derive(Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "toml::Table")]
 pub struct ProbeConfig {
-    /// Anchors per object (paper: 16000).
-    pub anchors: usize,
-    /// Rays per supervision view (paper: 4096).
-    pub rays_per_view: usize,
-    /// Supervision views per object and step, of 24 (paper: 24).
-    #[serde(default = "all_views")]
-    pub views: usize,
-    /// Support radius τ (paper: 0.03).
-    #[serde(default = "paper_radius")]
-    pub radius: f32,
-    /// `naive` or `boundary_aware`.
-    #[serde(default)]
-    pub assignment: AssignmentPolicy,
+    #[serde(flatten)]
+    pub spec: ProbeSpec,
     pub ray_sampler: Box<dyn RaySamplerConfig>,
     pub anchor_sampler: Box<dyn AnchorSamplerConfig>,
-    #[serde(default = "max_pool")]
     pub aggregator: Box<dyn AggregatorConfig>,
+}
+
+impl TryFrom<toml::Table> for ProbeConfig {
+    type Error = String;
+
+    fn try_from(mut table: toml::Table) -> std::result::Result<Self, String> {
+        fn component<T: serde::de::DeserializeOwned>(
+            table: &mut toml::Table,
+            key: &str,
+        ) -> std::result::Result<Option<T>, String> {
+            table
+                .remove(key)
+                .map(|v| v.try_into().map_err(|e| format!("probe.{key}: {e}")))
+                .transpose()
+        }
+        let missing = |key: &str| format!("probe: missing field `{key}`");
+        let ray_sampler =
+            component(&mut table, "ray_sampler")?.ok_or_else(|| missing("ray_sampler"))?;
+        let anchor_sampler =
+            component(&mut table, "anchor_sampler")?.ok_or_else(|| missing("anchor_sampler"))?;
+        let aggregator = component(&mut table, "aggregator")?.unwrap_or_else(max_pool);
+        let spec = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e| format!("probe: {e}"))?;
+        Ok(Self {
+            spec,
+            ray_sampler,
+            anchor_sampler,
+            aggregator,
+        })
+    }
 }
 
 fn all_views() -> usize {
     24
-}
-
-fn paper_radius() -> f32 {
-    0.03
 }
 
 /// Evaluation settings.
@@ -284,19 +305,7 @@ impl Experiment {
         }
         self.model.validate()?;
         self.train.validate()?;
-        let p = &self.probe;
-        if p.anchors == 0 || p.rays_per_view == 0 || p.views == 0 || p.views > 24 {
-            return Err(
-                "probe.anchors and probe.rays_per_view must be positive, probe.views in 1..=24"
-                    .into(),
-            );
-        }
-        if !(p.radius > 0.0 && p.radius < 0.5) {
-            return Err(format!(
-                "probe.radius must be in (0, 0.5), got {}",
-                p.radius
-            ));
-        }
+        self.probe.spec.validate()?;
         if !(2..=256).contains(&self.eval.resolution)
             || self.eval.views == 0
             || self.eval.views > 24
@@ -338,13 +347,7 @@ impl Experiment {
 
     /// The probing spec.
     pub fn probe_spec(&self) -> ProbeSpec {
-        ProbeSpec {
-            anchors: self.probe.anchors,
-            rays_per_view: self.probe.rays_per_view,
-            views: self.probe.views,
-            radius: self.probe.radius,
-            assignment: self.probe.assignment,
-        }
+        self.probe.spec
     }
 
     /// Builds the pluggable components (validating their settings).

@@ -13,6 +13,7 @@ use fieldprobe_core::field::Field;
 use fieldprobe_core::probe::Aggregator;
 
 use crate::ablation::entry::Status;
+use crate::evaluate::GalleryMeshes;
 use crate::experiment::Experiment;
 use crate::loader::CategoryData;
 use crate::metrics::{Metrics, Training};
@@ -30,6 +31,8 @@ pub struct FinishedRun<'a> {
     /// The run directory.
     pub dir: &'a Path,
     pub metrics: &'a Metrics,
+    /// Meshes evaluation extracted for the gallery (see `evaluate::Evaluation`).
+    pub meshes: &'a GalleryMeshes,
     pub training: &'a Training,
     /// The plain (non-autodiff) device the model is on.
     pub device: &'a Device,

@@ -172,7 +172,7 @@ pub fn evaluate_run(
         .components()
         .map_err(|e| anyhow::anyhow!("{}: {e}", exp.name))?;
     let aggregator = comps.aggregator.as_ref();
-    let per_category = evaluate(
+    let evaluation = evaluate(
         model,
         aggregator,
         data,
@@ -182,6 +182,7 @@ pub fn evaluate_run(
         &selected.device,
     )?;
     let eval_seconds = t0.elapsed().as_secs_f64();
+    let per_category = evaluation.per_category;
     let metrics = Metrics {
         experiment: exp.name.clone(),
         mean_iou: mean_of(&per_category, |c| Some(c.iou)).unwrap_or(0.0),
@@ -216,6 +217,7 @@ pub fn evaluate_run(
         data,
         dir,
         metrics: &metrics,
+        meshes: &evaluation.gallery_meshes,
         training,
         device: &selected.device,
     })?;

@@ -472,8 +472,8 @@ regularizer = { type = "none" }
             );
             assert_eq!(x.train, base.train);
             assert_eq!(x.eval, base.eval);
-            assert_eq!(x.probe.anchors, 256);
-            assert_eq!(x.probe.assignment, base.probe.assignment);
+            assert_eq!(x.probe.spec.anchors, 256);
+            assert_eq!(x.probe.spec.assignment, base.probe.spec.assignment);
         }
         // The sampler switch replaces the importance tables: no importance fields are inherited.
         let normal = &f.entries[1].experiment.probe;

@@ -13,19 +13,54 @@ use serde::{Deserialize, Serialize};
 
 use super::assign::{Assignment, AssignmentPolicy, Probe, RaySet, assign_binned};
 use super::sampler::{AnchorSampler, RaySampler, Supervision};
+use crate::geometry::NUM_VIEWS;
 
-/// How many anchors and rays to probe per object, and how.
+/// How many anchors and rays to probe per object, and how: the numeric keys of an experiment's
+/// `[probe]` table (its components, the samplers and the aggregator, sit beside them there).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ProbeSpec {
     /// Anchors per object (paper: 16000).
     pub anchors: usize,
     /// Rays per supervision view (paper: 4096).
     pub rays_per_view: usize,
     /// Supervision views per object and step, drawn from the 24 (paper: all 24).
+    #[serde(default = "ProbeSpec::all_views")]
     pub views: usize,
     /// Support radius τ (paper: 0.03).
+    #[serde(default = "ProbeSpec::paper_radius")]
     pub radius: f32,
+    /// `naive`, `boundary_aware` or `boundary_aware_hull`.
+    #[serde(default)]
     pub assignment: AssignmentPolicy,
+}
+
+impl ProbeSpec {
+    fn all_views() -> usize {
+        NUM_VIEWS
+    }
+
+    fn paper_radius() -> f32 {
+        0.03
+    }
+
+    /// Checks what the types cannot; errors name the key.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.anchors == 0 || self.rays_per_view == 0 || self.views == 0 || self.views > NUM_VIEWS
+        {
+            return Err(
+                "probe.anchors and probe.rays_per_view must be positive, probe.views in 1..=24"
+                    .into(),
+            );
+        }
+        if !(self.radius > 0.0 && self.radius < 0.5) {
+            return Err(format!(
+                "probe.radius must be in (0, 0.5), got {}",
+                self.radius
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// One object's probe: anchors, rays and their assignment.

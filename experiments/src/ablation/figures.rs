@@ -117,12 +117,12 @@ pub fn write_samples(
         };
         let mut rng = step_rng(base.seed, 0, 1000 + c);
         let px: Vec<(f32, f32)> = rays
-            .sample_pixels(object, view, probe.rays_per_view, &mut rng)
+            .sample_pixels(object, view, probe.spec.rays_per_view, &mut rng)
             .iter()
             .map(|p| (p.col, p.row))
             .collect();
         let pts: Vec<(f32, f32)> = anchors
-            .sample_anchors(object, probe.anchors, &mut rng)
+            .sample_anchors(object, probe.spec.anchors, &mut rng)
             .into_iter()
             .filter_map(|a| {
                 let (p, depth) = cam.project(a);
@@ -159,7 +159,7 @@ pub fn write_samples(
             inline_of(rays_b),
             inline_of(anchors_b)
         ),
-        rays: probe.rays_per_view,
-        anchors: probe.anchors,
+        rays: probe.spec.rays_per_view,
+        anchors: probe.spec.anchors,
     })
 }
