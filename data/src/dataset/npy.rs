@@ -144,62 +144,79 @@ impl NpyArray {
 
     /// Parses a `.npy` byte stream; `what` names the source in errors.
     pub fn read_npy(bytes: &[u8], what: &Path) -> Result<Self> {
+        Self::read_npy_from(&mut &bytes[..], bytes.len() as u64, what)
+    }
+
+    /// Reads one `.npy` array from `r`, which holds at most `max_bytes` bytes (header and data:
+    /// a file's length, an archive member's bound). Every size is checked arithmetic, nothing is
+    /// allocated for more data than `max_bytes` allows, and the data are read straight into the
+    /// array's buffer (peak memory ≈ the array). `what` names the source in errors.
+    pub fn read_npy_from(r: &mut impl Read, max_bytes: u64, what: &Path) -> Result<Self> {
         let bad = |m: String| Error::format(what, m);
-        if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        let io = |e: std::io::Error| Error::format(what, format!("cannot read: {e}"));
+        let mut lead = [0u8; 10];
+        if !read_full(r, &mut lead).map_err(io)? {
+            return Err(bad("not a .npy array (shorter than its header)".into()));
+        }
+        if &lead[..6] != b"\x93NUMPY" {
             return Err(bad("not a .npy array (bad magic)".into()));
         }
-        let (hlen, start) = match bytes[6] {
-            1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
-            2 | 3 if bytes.len() >= 12 => (
-                u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
-                12,
-            ),
+        let (hlen, start) = match lead[6] {
+            1 => (u16::from_le_bytes([lead[8], lead[9]]) as usize, 10usize),
+            2 | 3 => {
+                let mut more = [0u8; 2];
+                if !read_full(r, &mut more).map_err(io)? {
+                    return Err(bad("truncated .npy header".into()));
+                }
+                let n = u32::from_le_bytes([lead[8], lead[9], more[0], more[1]]) as usize;
+                (n, 12)
+            }
             v => return Err(bad(format!("unsupported .npy format version {v}"))),
         };
-        let header = bytes
-            .get(start..start + hlen)
-            .and_then(|h| std::str::from_utf8(h).ok())
-            .ok_or_else(|| bad("truncated or non-UTF-8 .npy header".into()))?;
-        let descr = header_value(header, "descr")
-            .ok_or_else(|| bad(format!("header has no 'descr': {header}")))?;
-        let descr = descr
-            .strip_prefix(['\'', '"'])
-            .and_then(|d| d.split(['\'', '"']).next())
-            .ok_or_else(|| bad(format!("malformed 'descr' in header: {header}")))?;
-        let dtype =
-            DType::from_descr(descr).ok_or_else(|| bad(format!("unsupported dtype '{descr}'")))?;
-        if header_value(header, "fortran_order").is_some_and(|v| v.starts_with("True")) {
-            return Err(bad("Fortran-ordered arrays are not supported".into()));
-        }
-        let shape_s = header_value(header, "shape")
-            .ok_or_else(|| bad(format!("header has no 'shape': {header}")))?;
-        let inner = shape_s
-            .strip_prefix('(')
-            .and_then(|s| s.split(')').next())
-            .ok_or_else(|| bad(format!("malformed shape '{shape_s}'")))?;
-        let shape = inner
-            .split(',')
-            .map(str::trim)
-            .filter(|s| !s.is_empty())
-            .map(|s| s.parse::<usize>())
-            .collect::<std::result::Result<Vec<_>, _>>()
-            .map_err(|_| bad(format!("malformed shape '{shape_s}'")))?;
-        let data = &bytes[start + hlen..];
-        let expected = shape.iter().product::<usize>() * dtype.size();
-        if data.len() != expected {
+        if hlen > MAX_HEADER {
             return Err(bad(format!(
-                "data has {} bytes, shape {:?} of {} needs {}",
-                data.len(),
-                shape,
-                descr,
-                expected
+                "header claims {hlen} bytes (more than {MAX_HEADER}): not a NumPy header"
             )));
         }
-        Ok(Self {
-            dtype,
-            shape,
-            data: data.to_vec(),
-        })
+        let mut header = vec![0u8; hlen];
+        if !read_full(r, &mut header).map_err(io)? {
+            return Err(bad("truncated .npy header".into()));
+        }
+        let header =
+            std::str::from_utf8(&header).map_err(|_| bad("non-UTF-8 .npy header".into()))?;
+        let (dtype, shape) = parse_header(header).map_err(bad)?;
+        let expected = shape
+            .iter()
+            .try_fold(dtype.size(), |n, &d| n.checked_mul(d))
+            .ok_or_else(|| bad(format!("shape {shape:?} overflows the address space")))?;
+        let available = max_bytes.saturating_sub((start + hlen) as u64);
+        if expected as u64 > available {
+            return Err(bad(format!(
+                "shape {shape:?} of {} needs {expected} bytes of data, but at most {available} are there",
+                dtype.descr()
+            )));
+        }
+        let mut data = Vec::new();
+        data.try_reserve_exact(expected).map_err(|e| {
+            bad(format!(
+                "cannot allocate {expected} bytes for the array: {e}"
+            ))
+        })?;
+        let got = r.take(expected as u64).read_to_end(&mut data).map_err(io)?;
+        if got != expected {
+            return Err(bad(format!(
+                "data has {got} bytes, shape {shape:?} of {} needs {expected}",
+                dtype.descr()
+            )));
+        }
+        let mut extra = [0u8; 1];
+        if r.read(&mut extra).map_err(io)? != 0 {
+            return Err(bad(format!(
+                "data runs past the {expected} bytes that shape {shape:?} of {} needs",
+                dtype.descr()
+            )));
+        }
+        Ok(Self { dtype, shape, data })
     }
 
     /// Checks dtype and shape, with an error naming `file` and `key`. A `None` in `shape` matches
@@ -237,6 +254,55 @@ impl NpyArray {
     }
 }
 
+/// The longest header we accept (NumPy's own readers refuse far shorter ones by default).
+const MAX_HEADER: usize = 1 << 20;
+
+/// Deflate cannot expand data by more than about 1032:1, so an archive member bounds its array
+/// by what it stores, whatever size it claims.
+const MAX_DEFLATE_RATIO: u64 = 1032;
+
+/// Fills `buf` from `r`; `false` if the stream ended first.
+fn read_full(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<bool> {
+    let mut at = 0;
+    while at < buf.len() {
+        match r.read(&mut buf[at..]) {
+            Ok(0) => return Ok(false),
+            Ok(n) => at += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(true)
+}
+
+/// The dtype and shape of a NumPy header dict.
+fn parse_header(header: &str) -> std::result::Result<(DType, Vec<usize>), String> {
+    let descr =
+        header_value(header, "descr").ok_or_else(|| format!("header has no 'descr': {header}"))?;
+    let descr = descr
+        .strip_prefix(['\'', '"'])
+        .and_then(|d| d.split(['\'', '"']).next())
+        .ok_or_else(|| format!("malformed 'descr' in header: {header}"))?;
+    let dtype = DType::from_descr(descr).ok_or_else(|| format!("unsupported dtype '{descr}'"))?;
+    if header_value(header, "fortran_order").is_some_and(|v| v.starts_with("True")) {
+        return Err("Fortran-ordered arrays are not supported".into());
+    }
+    let shape_s =
+        header_value(header, "shape").ok_or_else(|| format!("header has no 'shape': {header}"))?;
+    let inner = shape_s
+        .strip_prefix('(')
+        .and_then(|s| s.split(')').next())
+        .ok_or_else(|| format!("malformed shape '{shape_s}'"))?;
+    let shape = inner
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse::<usize>())
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(|_| format!("malformed shape '{shape_s}'"))?;
+    Ok((dtype, shape))
+}
+
 /// The text after `'key':` in a NumPy header dict, up to the end of the header.
 fn header_value<'a>(header: &'a str, key: &str) -> Option<&'a str> {
     let pat = format!("'{key}'");
@@ -245,10 +311,11 @@ fn header_value<'a>(header: &'a str, key: &str) -> Option<&'a str> {
     Some(rest.trim_start())
 }
 
-/// Writes an `.npz` archive atomically: `arrays` maps keys (`arr_0`) to arrays.
+/// Writes an `.npz` archive atomically: `arrays` maps keys (`arr_0`) to arrays. The archive is
+/// streamed to the file (no copy of it in memory).
 pub fn write_npz(path: &Path, arrays: &[(&str, &NpyArray)]) -> Result<()> {
     super::write_atomic(path, |file| {
-        let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+        let mut zip = zip::ZipWriter::new(&mut *file);
         let opts = zip::write::SimpleFileOptions::default()
             .compression_method(zip::CompressionMethod::Deflated)
             .large_file(true);
@@ -257,16 +324,51 @@ pub fn write_npz(path: &Path, arrays: &[(&str, &NpyArray)]) -> Result<()> {
                 .map_err(std::io::Error::other)?;
             arr.write_npy(&mut zip)?;
         }
-        let buf = zip.finish().map_err(std::io::Error::other)?.into_inner();
-        file.write_all(&buf)
+        zip.finish().map_err(std::io::Error::other)?;
+        Ok(())
     })
+}
+
+/// Opens an `.npz` archive.
+fn open_npz(path: &Path) -> Result<zip::ZipArchive<std::io::BufReader<std::fs::File>>> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    zip::ZipArchive::new(std::io::BufReader::new(file))
+        .map_err(|e| Error::format(path, format!("not a valid .npz (zip) archive: {e}")))
+}
+
+/// Reads one archive member (named `name`) as an array; errors name the archive and the member.
+fn read_member(
+    path: &Path,
+    name: &str,
+    member: &mut (impl Read + MemberSizes),
+) -> Result<NpyArray> {
+    // Bound what the member can hold by what it stores, not by the size it claims.
+    let (stored, claimed, deflated) = member.sizes();
+    let bound = if deflated {
+        stored
+            .saturating_mul(MAX_DEFLATE_RATIO)
+            .saturating_add(1024)
+    } else {
+        stored
+    };
+    NpyArray::read_npy_from(member, bound.min(claimed), &path.join(name))
+}
+
+/// The sizes of an archive member: stored, claimed (uncompressed), and whether it is compressed.
+trait MemberSizes {
+    fn sizes(&self) -> (u64, u64, bool);
+}
+
+impl<R: Read> MemberSizes for zip::read::ZipFile<'_, R> {
+    fn sizes(&self) -> (u64, u64, bool) {
+        let deflated = self.compression() != zip::CompressionMethod::Stored;
+        (self.compressed_size(), self.size(), deflated)
+    }
 }
 
 /// Reads every member of an `.npz` archive.
 pub fn read_npz(path: &Path) -> Result<BTreeMap<String, NpyArray>> {
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let mut zip = zip::ZipArchive::new(std::io::BufReader::new(file))
-        .map_err(|e| Error::format(path, format!("not a valid .npz (zip) archive: {e}")))?;
+    let mut zip = open_npz(path)?;
     let mut out = BTreeMap::new();
     for i in 0..zip.len() {
         let mut member = zip
@@ -278,27 +380,33 @@ pub fn read_npz(path: &Path) -> Result<BTreeMap<String, NpyArray>> {
                 Error::format(path, format!("archive member {i} has an invalid name: {e}"))
             })?
             .to_string();
-        let mut bytes = Vec::with_capacity(member.size() as usize);
-        member.read_to_end(&mut bytes).map_err(|e| {
-            Error::format(path, format!("member '{name}' cannot be decompressed: {e}"))
-        })?;
         let key = name.strip_suffix(".npy").unwrap_or(&name).to_string();
-        let arr = NpyArray::read_npy(&bytes, &path.join(&name))?;
-        out.insert(key, arr);
+        let array = read_member(path, &name, &mut member)?;
+        out.insert(key, array);
     }
     Ok(out)
 }
 
-/// Reads the member `key` of an `.npz` archive; an error names the file and the keys it has.
+/// Reads the member `key` of an `.npz` archive (only that one is decompressed); an error names
+/// the file and the keys it has.
 pub fn read_npz_key(path: &Path, key: &str) -> Result<NpyArray> {
-    let mut all = read_npz(path)?;
-    all.remove(key).ok_or_else(|| {
-        let keys: Vec<_> = all.keys().cloned().collect();
-        Error::format(
+    let mut zip = open_npz(path)?;
+    let name = format!("{key}.npy");
+    let Some(index) = zip.index_for_name(&name) else {
+        let keys: Vec<String> = zip
+            .file_names()
+            .filter_map(|n| n.ok())
+            .map(|n| n.strip_suffix(".npy").unwrap_or(&n).to_string())
+            .collect();
+        return Err(Error::format(
             path,
             format!("missing key '{key}' (keys present: {keys:?})"),
-        )
-    })
+        ));
+    };
+    let mut member = zip
+        .by_index(index)
+        .map_err(|e| Error::format(path, format!("corrupt archive member '{name}': {e}")))?;
+    read_member(path, &name, &mut member)
 }
 
 #[cfg(test)]
@@ -348,5 +456,98 @@ mod tests {
         std::fs::write(&corrupt, b"PK\x03\x04 this is not a zip").unwrap();
         let e = read_npz(&corrupt).unwrap_err().to_string();
         assert!(e.contains("corrupt.npz"), "{e}");
+    }
+
+    /// A `.npy` stream with `header` (padded as NumPy does) and `data` after it.
+    fn npy_with(header: &str, data: &[u8]) -> Vec<u8> {
+        let mut h = header.to_string();
+        while !(10 + h.len() + 1).is_multiple_of(64) {
+            h.push(' ');
+        }
+        h.push('\n');
+        let mut out = b"\x93NUMPY\x01\x00".to_vec();
+        out.extend_from_slice(&(h.len() as u16).to_le_bytes());
+        out.extend_from_slice(h.as_bytes());
+        out.extend_from_slice(data);
+        out
+    }
+
+    fn error_of(bytes: &[u8]) -> String {
+        NpyArray::read_npy(bytes, Path::new("f.npy"))
+            .unwrap_err()
+            .to_string()
+    }
+
+    /// Forged and broken headers give a clean error naming the file, before anything the
+    /// header claims is allocated.
+    #[test]
+    fn hostile_npy_files_are_refused_with_what_is_wrong() {
+        let h =
+            |shape: &str| format!("{{'descr': '|u1', 'fortran_order': False, 'shape': {shape}, }}");
+        // A terabyte claimed, four bytes there.
+        let e = error_of(&npy_with(&h("(1099511627776,)"), &[0; 4]));
+        assert!(e.contains("f.npy") && e.contains("at most"), "{e}");
+        // A shape whose byte count overflows usize.
+        let e = error_of(&npy_with(&h(&format!("({}, 4)", usize::MAX / 2)), &[]));
+        assert!(e.contains("overflows"), "{e}");
+        // Truncated data, and data past the shape.
+        let e = error_of(&npy_with(&h("(2, 3)"), &[1, 2, 3]));
+        assert!(e.contains("needs 6") || e.contains("at most 3"), "{e}");
+        let e = error_of(&npy_with(&h("(2,)"), &[1, 2, 3]));
+        assert!(e.contains("runs past"), "{e}");
+        // A version-2 header that claims 4 GiB of header.
+        let mut v2 = b"\x93NUMPY\x02\x00\xff\xff\xff\xff".to_vec();
+        v2.extend_from_slice(b"{}");
+        assert!(error_of(&v2).contains("header claims"), "{}", error_of(&v2));
+        // Bad magic, a cut-off file, nonsense in the header.
+        assert!(error_of(b"PK\x03\x04 not numpy at all").contains("bad magic"));
+        assert!(error_of(b"\x93NUM").contains("shorter than its header"));
+        let e = error_of(&npy_with("{'descr': '<c16', 'shape': (1,)}", &[0; 16]));
+        assert!(e.contains("unsupported dtype"), "{e}");
+        let e = error_of(&npy_with(&h("(2, x)"), &[]));
+        assert!(e.contains("malformed shape"), "{e}");
+        // And a well-formed one still reads.
+        let a = NpyArray::read_npy(&npy_with(&h("(2, 2)"), &[1, 2, 3, 4]), Path::new("f"));
+        assert_eq!(a.unwrap().data, [1, 2, 3, 4]);
+    }
+
+    /// The requested member is read by name: a corrupt sibling does not stop it (it does stop
+    /// reading the whole archive, with the sibling named), and a member whose header claims more
+    /// than it stores is refused naming the archive and the member.
+    #[test]
+    fn npz_members_are_read_by_name_and_bounded_by_what_they_store() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("mixed.npz");
+        let good = NpyArray::from_u8(vec![4], vec![9, 8, 7, 6]);
+        let mut bytes = Vec::new();
+        good.write_npy(&mut bytes).unwrap();
+        let forged = npy_with(
+            "{'descr': '|u1', 'fortran_order': False, 'shape': (1099511627776,), }",
+            &[0; 8],
+        );
+        let file = std::fs::File::create(&p).unwrap();
+        let mut zip = zip::ZipWriter::new(file);
+        let opts = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated);
+        for (name, data) in [
+            ("arr_0.npy", &bytes[..]),
+            ("junk.npy", &b"garbage"[..]),
+            ("big.npy", &forged[..]),
+        ] {
+            zip.start_file(name, opts).unwrap();
+            zip.write_all(data).unwrap();
+        }
+        zip.finish().unwrap();
+        assert_eq!(read_npz_key(&p, "arr_0").unwrap(), good);
+        let e = read_npz_key(&p, "big").unwrap_err().to_string();
+        assert!(
+            e.contains("mixed.npz") && e.contains("big.npy") && e.contains("at most"),
+            "{e}"
+        );
+        let e = read_npz(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("junk.npy") && e.contains("not a .npy array"),
+            "{e}"
+        );
     }
 }
