@@ -132,7 +132,8 @@ pub enum BackendError {
     #[error(
         "backend \"wgpu\": {0}. wgpu would fall back to OpenGL, which FieldProbe does not run on \
          (cubecl's autotune has been seen to wait forever there). Install a Vulkan driver (for a \
-         software device: `apt-get install mesa-vulkan-drivers libvulkan1`) or use backend = \"flex\""
+         software device: `{install}`) or use backend = \"flex\"",
+        install = vulkan::VULKAN_INSTALL
     )]
     NoVulkan(String),
 }

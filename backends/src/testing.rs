@@ -24,7 +24,8 @@ pub fn wgpu_or_skip(test: &str) -> Option<Device> {
     if let Some(reason) = crate::wgpu_unavailable() {
         let _ = writeln!(
             std::io::stderr(),
-            "skipped {test}: {reason}; install a Vulkan driver (e.g. `apt-get install mesa-vulkan-drivers libvulkan1`) to run it"
+            "skipped {test}: {reason}; install a Vulkan driver (e.g. `{}`) to run it",
+            crate::vulkan::VULKAN_INSTALL
         );
         return None;
     }

@@ -3,6 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
+/// What to install for a Vulkan device where there is no GPU driver (Mesa's lavapipe).
+pub const VULKAN_INSTALL: &str = "apt-get install mesa-vulkan-drivers libvulkan1";
+
 /// `None` when wgpu can be used here; otherwise why not, in words a user can act on.
 ///
 /// Only Linux is checked: there wgpu's own choice falls back from Vulkan to OpenGL, which this

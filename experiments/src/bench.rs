@@ -73,7 +73,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let comps = exp
         .components()
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.file.display()))?;
-    let spec = exp.probe_spec();
+    let spec = exp.probe.spec;
     let mut trainer = Trainer::new(exp.model.as_ref(), &selected.device, exp.seed);
     // The run's own loop, untimed warm-up steps first; the hook reads each step's timings.
     let schedule = TrainSpec {

@@ -24,7 +24,7 @@ use fieldprobe_core::geometry::NUM_VIEWS;
 use fieldprobe_core::probe::Aggregator;
 
 use crate::{pictures, plot};
-use fieldprobe::evaluate::{GalleryMeshes, eval_views};
+use fieldprobe::evaluate::{GalleryMeshes, eval_views, gallery_key};
 use fieldprobe::experiment::EvalConfig;
 use fieldprobe::loader::CategoryData;
 
@@ -93,9 +93,8 @@ pub fn write(
                     pictures::silhouette_overlay(&pred, &obj.supervision.silhouettes[w], 1);
                 row.push(pictures::fit(&overlay, PANEL));
             }
-            let key = (cat.category.name().to_string(), id.clone());
             let extracted;
-            let mesh = match meshes.get(&key) {
+            let mesh = match meshes.get(&gallery_key(cat.category, id)) {
                 Some(m) => m,
                 None => {
                     extracted = extract_field_mesh(model, z.as_ref(), &cfg.extract, device);

@@ -11,7 +11,7 @@ use fieldprobe::launch::run_file;
 use fieldprobe::loader::CategoryData;
 use fieldprobe::outputs::{FinishedRun, Outputs};
 use fieldprobe::run::RunOptions;
-use fieldprobe::variants::{AblationFile, has_variants};
+use fieldprobe::variants::AblationFile;
 
 use crate::ablation::{SamplesInfo, write_report, write_samples};
 use crate::plot;
@@ -48,10 +48,9 @@ pub fn run(args: RunArgs) -> Result<()> {
     };
     let done = run_file(&args.file, &opts, &ReportOutputs::default())?;
     println!("{}", done.report);
-    let what = if has_variants(&args.file) {
-        "ablation directory"
-    } else {
-        "run directory"
+    let what = match done.metrics {
+        Some(_) => "run directory",
+        None => "ablation directory",
     };
     println!("{what}: {}", done.dir.display());
     if !done.failed.is_empty() {

@@ -8,7 +8,7 @@ use std::path::Path;
 use anyhow::Result;
 use burn::prelude::*;
 use fieldprobe_core::data::voxelize::voxelize_nmr;
-use fieldprobe_core::data::{TriMesh, VoxelGrid};
+use fieldprobe_core::data::{Category, TriMesh, VoxelGrid};
 use fieldprobe_core::eval::surface::{
     SurfaceMetrics, SurfaceSample, outer_surface, sample_surface, surface_metrics,
 };
@@ -159,8 +159,13 @@ pub struct Evaluation {
     pub gallery_meshes: GalleryMeshes,
 }
 
-/// Meshes by `(category name, object id)`.
+/// Meshes by [`gallery_key`].
 pub type GalleryMeshes = BTreeMap<(String, String), TriMesh>;
+
+/// The key of an object's mesh in [`GalleryMeshes`]: `(category name, object id)`.
+pub fn gallery_key(category: Category, id: &str) -> (String, String) {
+    (category.name().to_string(), id.to_string())
+}
 
 /// Evaluates `model` (in evaluation mode, on the plain `device`) on every category (field
 /// silhouettes through `aggregator`, the run's); `mesh_dir`
@@ -249,8 +254,7 @@ pub fn evaluate(
                     });
                     // The first meshed view is the first evaluated one: the gallery's.
                     if k == 0 && o < cfg.gallery_objects {
-                        let key = (cat.category.name().to_string(), id.clone());
-                        gallery_meshes.insert(key, mesh);
+                        gallery_meshes.insert(gallery_key(cat.category, id), mesh);
                     }
                 }
             }

@@ -345,11 +345,6 @@ impl Experiment {
         Ok(())
     }
 
-    /// The probing spec.
-    pub fn probe_spec(&self) -> ProbeSpec {
-        self.probe.spec
-    }
-
     /// Builds the pluggable components (validating their settings).
     pub fn components(&self) -> std::result::Result<Components, String> {
         let regularizer = self

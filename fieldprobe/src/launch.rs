@@ -8,7 +8,6 @@ use anyhow::{Context, Result, bail};
 
 use crate::experiment::load_experiment;
 use crate::loader::{ensure_dataset, load};
-use crate::metrics::Metrics;
 use crate::outputs::{NoOutputs, Outputs};
 use crate::run::{FileOutcome, RunOptions, check_can_start, prepare_dir, run_one};
 use crate::variants::has_variants;
@@ -42,6 +41,7 @@ pub fn run_file(file: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result
         dir,
         report: outcome.report,
         failed: Vec::new(),
+        metrics: Some(outcome.metrics),
     })
 }
 
@@ -119,10 +119,7 @@ pub fn main_with_linked_plugins() -> Result<()> {
     }
     let file = file.context("usage: FILE.toml [--out DIR] [--resume]")?;
     let done = run_file(&file, &opts, &NoOutputs)?;
-    let metrics = done.dir.join("metrics.json");
-    if let Ok(text) = std::fs::read_to_string(&metrics)
-        && let Ok(m) = serde_json::from_str::<Metrics>(&text)
-    {
+    if let Some(m) = &done.metrics {
         println!("mean IoU {:.3} (max-pool protocol)", m.mean_iou);
     }
     println!("run directory: {}", done.dir.display());

@@ -52,6 +52,8 @@ pub struct FileOutcome {
     pub report: String,
     /// Ablation entries that failed (the others ran; rerun with `resume`).
     pub failed: Vec<String>,
+    /// A single run's metrics (what `metrics.json` holds); `None` for an ablation.
+    pub metrics: Option<Metrics>,
 }
 
 /// A finished run.
@@ -256,11 +258,10 @@ fn train(
         Trainer::new(exp.model.as_ref(), device, exp.seed)
     };
     let objects = pool(data);
-    let spec = exp.probe_spec();
     let run = TrainRun {
         objects: &objects,
         comps,
-        probe: &spec,
+        probe: &exp.probe.spec,
         schedule: &exp.train,
         uses_image: exp.model.uses_image(),
         seed: exp.seed,

@@ -37,16 +37,8 @@ impl<F: FnMut(&Trainer, &StepStats)> TrainHooks for F {
     }
 }
 
-/// Hooks that do nothing.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct NoHooks;
-
-impl TrainHooks for NoHooks {
-    fn after_step(&mut self, _: &Trainer, _: &StepStats) {}
-}
-
 /// How many steps one logged interval spans: a hundred points per run.
-pub fn log_interval(steps: usize) -> usize {
+fn log_interval(steps: usize) -> usize {
     (steps / 100).max(1)
 }
 

@@ -17,7 +17,7 @@
 pub mod checkpoint;
 mod fit;
 
-pub use fit::{NoHooks, TrainHooks, TrainRun, log_interval};
+pub use fit::{TrainHooks, TrainRun};
 
 use std::time::Instant;
 

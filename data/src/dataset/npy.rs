@@ -337,33 +337,21 @@ fn open_npz(path: &Path) -> Result<zip::ZipArchive<std::io::BufReader<std::fs::F
 }
 
 /// Reads one archive member (named `name`) as an array; errors name the archive and the member.
-fn read_member(
+fn read_member<R: Read>(
     path: &Path,
     name: &str,
-    member: &mut (impl Read + MemberSizes),
+    member: &mut zip::read::ZipFile<'_, R>,
 ) -> Result<NpyArray> {
     // Bound what the member can hold by what it stores, not by the size it claims.
-    let (stored, claimed, deflated) = member.sizes();
-    let bound = if deflated {
-        stored
+    let stored = member.compressed_size();
+    let bound = match member.compression() {
+        zip::CompressionMethod::Stored => stored,
+        _ => stored
             .saturating_mul(MAX_DEFLATE_RATIO)
-            .saturating_add(1024)
-    } else {
-        stored
+            .saturating_add(1024),
     };
-    NpyArray::read_npy_from(member, bound.min(claimed), &path.join(name))
-}
-
-/// The sizes of an archive member: stored, claimed (uncompressed), and whether it is compressed.
-trait MemberSizes {
-    fn sizes(&self) -> (u64, u64, bool);
-}
-
-impl<R: Read> MemberSizes for zip::read::ZipFile<'_, R> {
-    fn sizes(&self) -> (u64, u64, bool) {
-        let deflated = self.compression() != zip::CompressionMethod::Stored;
-        (self.compressed_size(), self.size(), deflated)
-    }
+    let bound = bound.min(member.size());
+    NpyArray::read_npy_from(member, bound, &path.join(name))
 }
 
 /// Reads every member of an `.npz` archive.

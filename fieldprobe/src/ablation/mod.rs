@@ -191,6 +191,7 @@ pub fn run(path: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result<File
         dir: root,
         report,
         failed,
+        metrics: None,
     })
 }
 
