@@ -18,7 +18,7 @@ pub enum ComponentKind {
     AnchorSampler,
     /// `[probe.aggregator]`
     Aggregator,
-    /// `[regularizer]`
+    /// `[regularizers.<name>]` (any number, each under a name of your choice)
     Regularizer,
 }
 
@@ -30,7 +30,7 @@ impl ComponentKind {
             ComponentKind::RaySampler => "probe.ray_sampler",
             ComponentKind::AnchorSampler => "probe.anchor_sampler",
             ComponentKind::Aggregator => "probe.aggregator",
-            ComponentKind::Regularizer => "regularizer",
+            ComponentKind::Regularizer => "regularizers.<name>",
         }
     }
 }

@@ -4,45 +4,54 @@
 
 use std::fs::File;
 use std::io::BufWriter;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
 
 use crate::{Error, Result};
 
-/// Distinguishes the temporaries of concurrent writers inside one process (two threads writing
-/// one path must not share a temporary file).
-static NEXT_TMP: AtomicU64 = AtomicU64::new(0);
-
-/// Writes `path` through a temporary sibling, `fsync` and a rename.
+/// Writes `path` through a temporary sibling, `fsync`, a rename and an `fsync` of the folder.
 ///
-/// The temporary is named `.<name>.tmp<pid>.<n>` (unique per process and call) and removed when
-/// `write` fails; on success the rename replaces `path` in one step, so readers see either the old
-/// file or the new one, never a mix. Missing parent folders are created.
+/// The temporary (`tempfile`: `.<name>.<random>.tmp`, unique per call, so concurrent writers of
+/// one path never share one) is removed when `write` fails or panics; on success the rename
+/// replaces `path` in one step, so readers see either the old file or the new one, never a mix,
+/// and the folder's `fsync` makes the rename itself survive a power cut. A full disk is an
+/// error naming `path`, with the old file intact. Missing parent folders are created.
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 ) -> Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
-    }
+    let parent = match path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(p) => {
+            std::fs::create_dir_all(p).map_err(|e| Error::io(p, e))?;
+            p
+        }
+        None => Path::new("."),
+    };
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let n = NEXT_TMP.fetch_add(1, Ordering::Relaxed);
-    let tmp: PathBuf = path.with_file_name(format!(".{name}.tmp{}.{n}", std::process::id()));
     let result = (|| {
-        let file = File::create(&tmp)?;
-        let mut w = BufWriter::new(file);
+        // Dropped (and so deleted) on every early return and on a panic in `write`.
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".{name}."))
+            .suffix(".tmp")
+            .tempfile_in(parent)?;
+        let mut w = BufWriter::new(tmp.reopen()?);
         write(&mut w)?;
         w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
+        tmp.persist(path).map_err(|e| e.error)?;
+        sync_dir(parent)
     })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::io(path, e));
+    result.map_err(|e| Error::io(path, e))
+}
+
+/// `fsync` of a folder, so that a rename in it is durable (a no-op where folders cannot be
+/// opened as files).
+fn sync_dir(dir: &Path) -> std::io::Result<()> {
+    match File::open(dir) {
+        Ok(d) => d.sync_all().or(Ok(())),
+        Err(_) => Ok(()),
     }
-    Ok(())
 }
 
 #[cfg(test)]
@@ -66,6 +75,45 @@ mod tests {
             1,
             "no temporary left"
         );
+    }
+
+    #[test]
+    fn a_panicking_writer_leaves_the_old_file_and_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("f.txt");
+        write_atomic(&p, |w| w.write_all(b"good")).unwrap();
+        let r = std::panic::catch_unwind(|| {
+            let _ = write_atomic(&p, |w| {
+                w.write_all(b"half").unwrap();
+                panic!("writer bug");
+            });
+        });
+        assert!(r.is_err());
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "good");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    /// A full disk (Linux's `/dev/full` answers every write with ENOSPC): the error names the
+    /// file and says why; what was there stays.
+    #[test]
+    fn a_full_disk_is_a_clear_error_and_the_old_file_stays() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("ckpt.bin");
+        write_atomic(&p, |w| w.write_all(b"last good")).unwrap();
+        let e = write_atomic(&p, |w| {
+            let mut full = std::fs::OpenOptions::new().write(true).open("/dev/full")?;
+            w.write_all(b"new")?;
+            full.write_all(&[0; 4096])
+        });
+        if Path::new("/dev/full").exists() {
+            let e = e.unwrap_err().to_string();
+            assert!(
+                e.contains("ckpt.bin") && e.to_lowercase().contains("space"),
+                "{e}"
+            );
+            assert_eq!(std::fs::read_to_string(&p).unwrap(), "last good");
+            assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        }
     }
 
     #[test]

@@ -3,8 +3,8 @@
 //! Everything here is plain CPU code that the method reads but that knows nothing of the method:
 //!
 //! * [`geometry`] — the NMR/SoftRas camera (24 views, NDC, rays) and ray intervals.
-//! * [`mesh`], [`image`], [`render`] — triangle meshes (`.obj` in and out), silhouettes, the CPU
-//!   rasterizer that makes Kato-style views.
+//! * [`mesh`], [`mesh_files`], [`image`], [`render`] — triangle meshes (`.obj`, `.off`, `.ply`,
+//!   `.stl` in; `.obj`, `.ply` out), silhouettes, the CPU rasterizer that makes Kato-style views.
 //! * [`grid`], [`voxelize`], [`inside`], [`hull`] — NMR's voxel placement and voxelization, exact
 //!   inside tests, the visual hull.
 //! * [`procedural`], [`category`], [`dataset`] — seeded shapes in the paper's six categories and
@@ -25,6 +25,7 @@ pub mod image;
 pub mod inside;
 pub mod io;
 pub mod mesh;
+pub mod mesh_files;
 pub mod procedural;
 pub mod render;
 pub mod voxelize;

@@ -13,8 +13,9 @@ use std::path::PathBuf;
 use anyhow::{Result, bail};
 use fieldprobe_core::train::{StepStats, TrainRun, TrainSpec, Trainer};
 
-use fieldprobe::experiment::load_experiment;
+use fieldprobe::experiment::load_experiment_with;
 use fieldprobe::loader::{ensure_dataset, load};
+use fieldprobe::overrides::Overrides;
 
 #[derive(clap::Args, Debug)]
 pub struct BenchArgs {
@@ -28,6 +29,9 @@ pub struct BenchArgs {
     /// For a file with `[[variants]]`: the variant to time (default: the base).
     #[arg(long)]
     pub variant: Option<String>,
+    /// Change a key of the file, e.g. `--set probe.anchors=4096` (repeatable; as for runs).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -39,8 +43,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.steps == 0 {
         bail!("--steps must be positive");
     }
+    let overrides = Overrides::parse(&args.set)?;
     let exp = if fieldprobe::variants::has_variants(&args.file) {
-        let file = fieldprobe::variants::AblationFile::load(&args.file)?;
+        let file = fieldprobe::variants::AblationFile::load_with(&args.file, &overrides)?;
         let names: Vec<String> = file.entries.iter().map(|e| e.name.clone()).collect();
         let i = match &args.variant {
             None => 0,
@@ -64,7 +69,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 args.file.display()
             );
         }
-        load_experiment(&args.file)?
+        load_experiment_with(&args.file, &overrides)?
     };
     ensure_dataset(&exp)?;
     let data = load(&exp)?;

@@ -14,7 +14,7 @@
 //! experiments reconstruct --run DIR --image IMG.png --out mesh.obj   a mesh from a picture
 //! ```
 //!
-//! Logs go through `tracing` (see [`logging`]; `FIELDPROBE_LOG=debug` for more).
+//! Logs go through `tracing` (see [`logging`]; `-v`, `-q` or `FIELDPROBE_LOG=debug`).
 
 pub mod ablation;
 pub mod bench;
@@ -51,6 +51,12 @@ struct Cli {
     command: Option<Command>,
     #[command(flatten)]
     run: Option<run::RunArgs>,
+    /// More log lines: -v debug, -vv trace (FieldProbe's crates; burn and wgpu stay at warn).
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+    /// Warnings and errors only, and no progress bars.
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    quiet: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -83,9 +89,11 @@ pub fn cli_main() -> anyhow::Result<()> {
     if std::env::var_os("BURN_DEVICE").is_none() {
         unsafe { std::env::set_var("BURN_DEVICE", "flex") };
     }
-    logging::init();
-    fieldprobe::progress::set_display(Box::new(progress::CliDisplay));
     let cli = Cli::parse();
+    logging::init(logging::level_of(cli.verbose, cli.quiet));
+    if !cli.quiet {
+        fieldprobe::progress::set_display(Box::new(progress::CliDisplay));
+    }
     match (cli.command, cli.run) {
         (Some(Command::Run(args)), _) | (None, Some(args)) => run::run(args),
         (Some(Command::Bench(args)), _) => bench::run(args),

@@ -5,6 +5,10 @@
 //! burn's own dependencies (`cargo tree -e features -i tracing-subscriber`), so using it here
 //! compiles nothing of burn again.
 //!
+//! Lines go to stderr through [`crate::progress::LogWriter`], which lifts the progress bars for
+//! the line and redraws them under it, so a log line never tears a bar.
+//!
+//! `-v` (debug), `-vv` (trace) and `-q` (warnings only, no bars) set a bare level; otherwise
 //! `FIELDPROBE_LOG` sets the filter. A bare level (`error`, `warn`, `info` — the default —,
 //! `debug`, `trace`) applies to FieldProbe's own crates, while other crates (burn, cubecl, wgpu)
 //! log only warnings and errors; anything else is read as an `EnvFilter` directive list
@@ -64,10 +68,24 @@ where
         .try_init();
 }
 
-/// Installs the logger on stderr with `FIELDPROBE_LOG`'s filter.
-pub fn init() {
-    let spec = std::env::var("FIELDPROBE_LOG").ok();
-    init_with(std::io::stderr, spec.as_deref());
+/// Installs the logger on stderr (above the progress bars) with `level` (from `-v`/`-q`) or,
+/// without one, `FIELDPROBE_LOG`'s filter.
+pub fn init(level: Option<Level>) {
+    let spec = match level {
+        Some(l) => Some(l.as_str().to_string()),
+        None => std::env::var("FIELDPROBE_LOG").ok(),
+    };
+    init_with(crate::progress::LogWriter::default, spec.as_deref());
+}
+
+/// The level `-v` (counted) and `-q` ask for; `None` when neither is given.
+pub fn level_of(verbose: u8, quiet: bool) -> Option<Level> {
+    match (quiet, verbose) {
+        (true, _) => Some(Level::WARN),
+        (false, 0) => None,
+        (false, 1) => Some(Level::DEBUG),
+        (false, _) => Some(Level::TRACE),
+    }
 }
 
 #[cfg(test)]
@@ -115,6 +133,14 @@ mod tests {
         assert!(!text.contains("adapter details"), "{text}");
         assert!(text.contains("training started"), "{text}");
         assert!(!text.contains("too verbose"), "{text}");
+    }
+
+    #[test]
+    fn verbosity_flags_pick_a_bare_level() {
+        assert_eq!(level_of(0, false), None);
+        assert_eq!(level_of(1, false), Some(Level::DEBUG));
+        assert_eq!(level_of(3, false), Some(Level::TRACE));
+        assert_eq!(level_of(0, true), Some(Level::WARN));
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! `make-dataset`: procedural shapes or a folder of `.obj` meshes → the published dataset layout
+//! `make-dataset`: procedural shapes or a folder of meshes (`.obj`, `.off`, `.ply`, `.stl`, the
+//! ShapeNetCore v1/v2 layouts, optional split lists) → the published dataset layout
 //! (made by `fieldprobe::make`), with a contact sheet of what was made.
 
 use std::path::PathBuf;
@@ -30,12 +31,19 @@ pub struct Args {
     /// Seed of the procedural generator.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Use meshes instead: `MESH_DIR/<category name or synset>/<id>.obj`.
+    /// Use meshes instead: `MESH_DIR/<category name or synset>/` holding `<id>.obj` (`.off`,
+    /// `.ply`, `.stl`) files or ShapeNetCore folders (`<id>/model.obj`,
+    /// `<id>/models/model_normalized.obj`).
     #[arg(long)]
     meshes: Option<PathBuf>,
-    /// Split that mesh-source objects go into.
+    /// Split that mesh-source objects go into (without --split-list, or for a list whose name
+    /// says no split).
     #[arg(long, default_value = "test")]
     split: Split,
+    /// A split list (one object id per line, e.g. SoftRas's `softras_train.lst`); its split is
+    /// read from its name. Repeat for several splits; objects no list names are skipped.
+    #[arg(long = "split-list", requires = "meshes")]
+    split_lists: Vec<PathBuf>,
     /// Ground-truth voxelization: `nmr` (the published protocol) or `winding`.
     #[arg(long, default_value = "nmr")]
     voxelizer: Voxelizer,
@@ -63,6 +71,7 @@ pub fn run(args: Args) -> Result<()> {
         Some(dir) => DatasetSource::Meshes {
             dir: dir.clone(),
             split: args.split,
+            split_lists: args.split_lists.clone(),
         },
         None => DatasetSource::Procedural {
             categories: args

@@ -3,12 +3,36 @@
 //! every [`LOG_EVERY`], so that logs show progress too. [`CliDisplay`] is how the library's
 //! progress (`fieldprobe::progress`) is shown by this binary.
 
-use std::sync::Mutex;
+use std::io::Write;
+use std::sync::{LazyLock, Mutex};
 use std::time::{Duration, Instant};
 
 use fieldprobe::progress::{Bar, Display};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use tracing::info;
+
+/// Every bar of this process (on stderr; hidden where stderr is not a terminal).
+static BARS: LazyLock<MultiProgress> = LazyLock::new(MultiProgress::new);
+
+/// stderr for log lines: each write clears the bars, writes, and lets them redraw below, so a log
+/// line printed during training does not tear the bar (indicatif's `suspend`). The logger
+/// formats a whole line before writing it, so a line is one write.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LogWriter;
+
+impl Write for LogWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        BARS.suspend(|| std::io::stderr().write(buf))
+    }
+
+    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+        BARS.suspend(|| std::io::stderr().write_all(buf))
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        std::io::stderr().flush()
+    }
+}
 
 /// Shows the library's progress as [`Progress`] bars; installed by `cli_main`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -46,7 +70,7 @@ pub struct Progress {
 impl Progress {
     /// Starts at `position` of `len`.
     pub fn new(label: &str, len: usize, position: usize) -> Self {
-        let bar = ProgressBar::new(len as u64).with_style(style(label));
+        let bar = BARS.add(ProgressBar::new(len as u64).with_style(style(label)));
         bar.set_position(position as u64);
         // The resumed position is work done before this process: without this the rate counts
         // it as done instantly and the ETA starts far too short.

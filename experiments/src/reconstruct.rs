@@ -1,8 +1,9 @@
 //! `experiments reconstruct --run RUN_DIR --image IMG.png [--mask MASK.png] --out mesh.obj`: a
 //! mesh from one picture with a trained model, plus a turntable PNG of it.
 //!
-//! The image: any PNG with an alpha channel, or without one together with `--mask` (8-bit grey,
-//! object bright; a given mask wins over an alpha channel). Colours are composited over white
+//! The image: a PNG or JPEG (told apart by content), with an alpha channel, or without one (every
+//! JPEG, a photo) together with `--mask` (8-bit grey, object bright; a given mask wins over an
+//! alpha channel). Colours are composited over white
 //! with the mask (the published renderings are over white), a non-square image is padded to a
 //! square around its centre, and the result is resized (triangle filter) to the size the model
 //! was trained on — `--exact-size` turns the resize into an error instead. The model sees the
@@ -40,7 +41,7 @@ pub struct Args {
     /// The run directory of a trained model.
     #[arg(long)]
     run: PathBuf,
-    /// The input picture (PNG); not used by a per-object fit, which has no encoder.
+    /// The input picture (PNG or JPEG); not used by a per-object fit, which has no encoder.
     #[arg(long)]
     image: Option<PathBuf>,
     /// A mask for an image without alpha (8-bit grey, object bright).
@@ -82,11 +83,28 @@ pub fn sibling(path: &Path, suffix: &str) -> PathBuf {
     path.with_file_name(format!("{stem}{suffix}"))
 }
 
+/// The largest picture side `reconstruct` reads, and the most memory its decoder may take: a
+/// forged header cannot make it allocate more (the image crate's own default is 512 MiB).
+pub const MAX_SIDE: u32 = 8192;
+pub const MAX_DECODE_BYTES: u64 = 256 << 20;
+
+/// Decodes a PNG or JPEG (by its content, not its extension) within [`MAX_SIDE`] and
+/// [`MAX_DECODE_BYTES`].
+pub fn open_image(path: &Path) -> image::ImageResult<image::DynamicImage> {
+    let mut reader = image::ImageReader::open(path)?.with_guessed_format()?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_SIDE);
+    limits.max_image_height = Some(MAX_SIDE);
+    limits.max_alloc = Some(MAX_DECODE_BYTES);
+    reader.limits(limits);
+    reader.decode()
+}
+
 /// Reads a picture (and optional mask) into Kato's `[4, S, S]` planes at `size` (see the module
 /// docs). Errors name the file.
 pub fn load_input(image: &Path, mask: Option<&Path>, size: usize, exact: bool) -> Result<Vec<u8>> {
     let img =
-        image::open(image).map_err(|e| anyhow!("{}: cannot read image: {e}", image.display()))?;
+        open_image(image).map_err(|e| anyhow!("{}: cannot read image: {e}", image.display()))?;
     let (w, h) = (img.width(), img.height());
     if w == 0 || h == 0 {
         bail!("{}: empty image", image.display());
@@ -99,7 +117,7 @@ pub fn load_input(image: &Path, mask: Option<&Path>, size: usize, exact: bool) -
     }
     let alpha: GrayImage = match mask {
         Some(m) => {
-            let mask = image::open(m)
+            let mask = open_image(m)
                 .map_err(|e| anyhow!("{}: cannot read mask: {e}", m.display()))?
                 .to_luma8();
             if mask.dimensions() != (w, h) {
@@ -329,6 +347,89 @@ mod tests {
             DynamicImage::ImageLuma8(GrayImage::new(8, 8)),
         );
         assert_eq!(load_input(&rgb, Some(&ok), 8, true).unwrap().len(), 4 * 64);
+    }
+
+    #[test]
+    fn a_jpeg_photo_with_a_mask_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let photo = save(
+            dir.path(),
+            "photo.jpg",
+            DynamicImage::ImageRgb8(RgbImage::from_pixel(24, 24, image::Rgb([200, 30, 30]))),
+        );
+        let mask = save(
+            dir.path(),
+            "mask.png",
+            DynamicImage::ImageLuma8(GrayImage::from_pixel(24, 24, Luma([255]))),
+        );
+        let planes = load_input(&photo, Some(&mask), 8, false).unwrap();
+        assert_eq!(planes.len(), 4 * 64);
+        // Red survives JPEG (inverted: 255 − ~200), alpha is the mask.
+        assert!((40..=70).contains(&planes[4 * 8 + 4]), "{}", planes[36]);
+        assert_eq!(planes[3 * 64 + 36], 255);
+        // Without a mask: the JPEG has no alpha, and the error says what to pass.
+        let e = load_input(&photo, None, 8, false).unwrap_err().to_string();
+        assert!(e.contains("photo.jpg") && e.contains("--mask"), "{e}");
+    }
+
+    /// Mutated PNG and JPEG files (truncated, flipped, forged sizes): a clean error or a picture,
+    /// never a panic; the decoder's memory is bounded by [`MAX_DECODE_BYTES`].
+    #[test]
+    fn mutated_pictures_are_read_or_refused_cleanly() {
+        use rand::{Rng, SeedableRng};
+        let dir = tempfile::tempdir().unwrap();
+        let rgba = RgbaImage::from_fn(32, 32, |x, y| {
+            image::Rgba([x as u8 * 8, y as u8 * 8, 90, 255])
+        });
+        let png = std::fs::read(save(dir.path(), "v.png", DynamicImage::ImageRgba8(rgba))).unwrap();
+        let rgb = RgbImage::from_fn(32, 32, |x, y| image::Rgb([x as u8 * 8, y as u8 * 8, 90]));
+        let jpg = std::fs::read(save(dir.path(), "v.jpg", DynamicImage::ImageRgb8(rgb))).unwrap();
+        let mask = save(
+            dir.path(),
+            "mask.png",
+            DynamicImage::ImageLuma8(GrayImage::from_pixel(32, 32, Luma([255]))),
+        );
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x1A6E);
+        let case_path = dir.path().join("case.img");
+        let mut read = [0usize; 2];
+        for case in 0..300 {
+            let (valid, k) = if case % 2 == 0 { (&png, 0) } else { (&jpg, 1) };
+            let mut b = valid.clone();
+            match rng.random_range(0..3) {
+                0 => b.truncate(rng.random_range(0..b.len())),
+                1 => {
+                    for _ in 0..rng.random_range(1..6) {
+                        let i = rng.random_range(0..b.len());
+                        b[i] ^= 1 << rng.random_range(0..8);
+                    }
+                }
+                _ => {
+                    // A forged width/height field (PNG IHDR at 16..24; JPEG SOF near the start).
+                    let at = if k == 0 {
+                        16 + rng.random_range(0..8)
+                    } else {
+                        rng.random_range(0..b.len().min(200))
+                    };
+                    if at < b.len() {
+                        b[at] = 0xFF;
+                    }
+                }
+            }
+            std::fs::write(&case_path, &b).unwrap();
+            let out = std::panic::catch_unwind(|| load_input(&case_path, Some(&mask), 16, false));
+            match out {
+                Ok(Ok(planes)) => {
+                    assert_eq!(planes.len(), 4 * 256, "case {case}");
+                    read[k] += 1;
+                }
+                Ok(Err(e)) => assert!(!e.to_string().is_empty(), "case {case}"),
+                Err(_) => panic!("case {case}: decoding panicked"),
+            }
+        }
+        assert!(
+            read[0] > 0 && read[1] > 0,
+            "both decoders exercised: {read:?}"
+        );
     }
 
     #[test]

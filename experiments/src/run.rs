@@ -10,6 +10,7 @@ use fieldprobe::ablation::entry::Status;
 use fieldprobe::launch::run_file;
 use fieldprobe::loader::CategoryData;
 use fieldprobe::outputs::{FinishedRun, Outputs};
+use fieldprobe::overrides::Overrides;
 use fieldprobe::run::RunOptions;
 use fieldprobe::variants::AblationFile;
 
@@ -37,6 +38,11 @@ pub struct RunArgs {
     /// `seeds`).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Change a key of the file without editing it: a dotted key and a TOML value, e.g.
+    /// `--set train.steps=10 --set probe.ray_sampler.type=normal` (repeatable; merged like an
+    /// ablation variant; recorded in the run's config.toml).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
@@ -45,6 +51,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         resume: args.resume,
         variant: args.variant,
         seed: args.seed,
+        overrides: Overrides::parse(&args.set)?,
     };
     let done = run_file(&args.file, &opts, &ReportOutputs::default())?;
     println!("{}", done.report);

@@ -114,9 +114,11 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
         assert_eq!(json(&base.probe.spec.assignment), "\"boundary_aware\"");
         assert!(json(&base.probe.ray_sampler).contains("\"importance\""));
         assert!(json(&base.probe.anchor_sampler).contains("\"importance\""));
-        let reg = json(&base.regularizer);
+        let reg = json(&base.regularizers);
         assert!(
-            reg.contains("\"p\":0.8") && reg.contains("\"delta\":0.03"),
+            reg.starts_with("{\"normals\":{\"type\":\"normal_consistency\"")
+                && reg.contains("\"p\":0.8")
+                && reg.contains("\"delta\":0.03"),
             "{reg}"
         );
         if paper_scale {
@@ -150,7 +152,7 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
                 json(&x.probe.ray_sampler) != json(&base.probe.ray_sampler),
                 json(&x.probe.anchor_sampler) != json(&base.probe.anchor_sampler),
                 x.probe.spec.assignment != base.probe.spec.assignment,
-                json(&x.regularizer) != json(&base.regularizer),
+                json(&x.regularizers) != json(&base.regularizers),
             ];
             assert_eq!(
                 changed.iter().filter(|c| **c).count(),
@@ -163,7 +165,7 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
                 path.display(),
                 v.name
             );
-            let reg = json(&x.regularizer);
+            let reg = json(&x.regularizers);
             match v.name.as_str() {
                 "no importance sampling" => {
                     for s in [json(&x.probe.ray_sampler), json(&x.probe.anchor_sampler)] {
@@ -174,7 +176,7 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
                 "boundary-aware (hull reading)" => {
                     assert_eq!(json(&x.probe.spec.assignment), "\"boundary_aware_hull\"")
                 }
-                "no regularizer" => assert_eq!(reg, r#"{"type":"none"}"#),
+                "no regularizer" => assert_eq!(reg, "{}"),
                 "p=2.0" | "p=1.0" => {
                     let p = &v.name[2..];
                     assert!(
@@ -222,7 +224,7 @@ assignment = "boundary_aware"
 ray_sampler = { type = "importance" }
 anchor_sampler = { type = "importance", resolution = 16 }
 
-[regularizer]
+[regularizers.normals]
 type = "normal_consistency"
 max_anchors = 32
 

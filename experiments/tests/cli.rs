@@ -139,6 +139,65 @@ fn mesh_folder_goes_into_the_named_split_in_sorted_order() {
     );
 }
 
+/// A ShapeNetCore-v2-shaped tree (`<synset>/<id>/models/model_normalized.obj`), a v1 folder
+/// (`<id>/model.obj`), loose `.off`, `.ply` and `.stl` files, and SoftRas split lists: every
+/// object goes to the split its list names, objects in no list are skipped.
+#[test]
+fn shapenet_layouts_mixed_formats_and_split_lists_make_a_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("ShapeNetCore.v2");
+    let tet_off = "OFF\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    let tet_ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    let tet_stl = "solid t\n\
+        facet normal 0 0 -1\nouter loop\nvertex 0 0 0\nvertex 0 1 0\nvertex 1 0 0\nendloop\nendfacet\n\
+        facet normal 0 -1 0\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 0 1\nendloop\nendfacet\n\
+        facet normal -1 0 0\nouter loop\nvertex 0 0 0\nvertex 0 0 1\nvertex 0 1 0\nendloop\nendfacet\n\
+        facet normal 1 1 1\nouter loop\nvertex 1 0 0\nvertex 0 1 0\nvertex 0 0 1\nendloop\nendfacet\n\
+        endsolid t\n";
+    write(
+        &root.join("03001627/1a2b/models/model_normalized.obj"),
+        TETRA,
+    );
+    write(&root.join("03001627/3c4d/model.obj"), TETRA);
+    write(&root.join("03001627/5e6f.off"), tet_off);
+    write(&root.join("03001627/7a8b.ply"), tet_ply);
+    write(&root.join("03001627/9c0d.stl"), tet_stl);
+    write(&root.join("03001627/unlisted.obj"), TETRA);
+    let lists = dir.path().join("lists");
+    write(&lists.join("softras_train.lst"), "1a2b\n5e6f\n7a8b\n");
+    write(
+        &lists.join("softras_test.lst"),
+        "# SoftRas test split\n3c4d\n9c0d\n",
+    );
+    let out = dir.path().join("d");
+    ok(&experiments(&[
+        "make-dataset",
+        "--out",
+        out.to_str().unwrap(),
+        "--meshes",
+        root.to_str().unwrap(),
+        "--split-list",
+        lists.join("softras_train.lst").to_str().unwrap(),
+        "--split-list",
+        lists.join("softras_test.lst").to_str().unwrap(),
+        "--voxelizer",
+        "winding",
+        "--supersample",
+        "1",
+    ]));
+    let ids = |split: &str| std::fs::read_to_string(out.join(format!("03001627_{split}_ids.txt")));
+    assert_eq!(ids("train").unwrap(), "1a2b\n5e6f\n7a8b\n");
+    assert_eq!(ids("test").unwrap(), "3c4d\n9c0d\n");
+    assert!(ids("val").is_err(), "no val list, no val split");
+    // The normalized ground-truth meshes are kept for the mesh metrics.
+    assert!(out.join("meshes/03001627/7a8b.obj").is_file());
+    let set = kato::read(&out, Category::Chair, Split::Train, false).unwrap();
+    assert_eq!(set.len(), 3);
+    // Every format made the same shape (a tetrahedron, normalized alike): equal silhouettes.
+    assert_eq!(set.silhouettes(0), set.silhouettes(1));
+    assert_eq!(set.silhouettes(0), set.silhouettes(2));
+}
+
 #[test]
 fn bad_meshes_and_folders_are_named_and_nothing_is_written() {
     let dir = tempfile::tempdir().unwrap();
@@ -232,6 +291,41 @@ fn experiment_files_with_bad_keys_or_components_are_named() {
             "{err}"
         );
     }
+    // Bad `--set` arguments and the table of earlier versions are named too.
+    let file = dir.path().join("quickstart.toml");
+    std::fs::write(&file, &good).unwrap();
+    let old = dir.path().join("old.toml");
+    std::fs::write(
+        &old,
+        good.replace("[regularizers.normals]", "[regularizer]"),
+    )
+    .unwrap();
+    for (args, needles) in [
+        (
+            vec![file.to_str().unwrap(), "--set", "train.stepz=3"],
+            vec!["quickstart.toml", "--set train.stepz=3", "stepz"],
+        ),
+        (
+            vec![file.to_str().unwrap(), "--set", "train.steps"],
+            vec!["KEY=VALUE"],
+        ),
+        (
+            vec![file.to_str().unwrap(), "--set", "train.steps=0"],
+            vec!["quickstart.toml", "train.steps"],
+        ),
+        (
+            vec![old.to_str().unwrap()],
+            vec!["old.toml", "[regularizers.<name>]"],
+        ),
+    ] {
+        let mut args = args.clone();
+        let out = dir.path().join("run");
+        args.extend(["--out", out.to_str().unwrap()]);
+        let err = fails(&experiments(&args));
+        for n in needles {
+            assert!(err.contains(n), "{n} not in: {err}");
+        }
+    }
     assert!(
         !dir.path().join("run").exists(),
         "nothing is written for a bad file"
@@ -246,8 +340,9 @@ fn list_shows_every_component_with_an_example() {
         "`normal`",
         "`max`",
         "`softmax`",
-        "`none`",
+        "`normal_consistency`",
         "`eikonal`",
+        "[regularizers.<name>]",
         "`single_view`",
         "`sdf`",
         "[model]",
@@ -319,12 +414,47 @@ fn a_run_reports_meshes_and_pictures_and_its_inputs_reconstruct() {
     let run = dir.path().join("run");
     let r = run.to_str().unwrap();
     // `--resume` on a directory with no checkpoint starts from step 0 (scripts always pass it).
+    // `--set` changes a key of the file (3 steps in the file, 4 here).
     ok(&experiments(&[
         file.to_str().unwrap(),
         "--out",
         r,
         "--resume",
+        "--set",
+        "train.steps=4",
     ]));
+    let config = std::fs::read_to_string(run.join("config.toml")).unwrap();
+    assert!(config.contains("steps = 4"), "{config}");
+    // history.csv: one row per logged interval (every step of a 4-step run).
+    let history = std::fs::read_to_string(run.join("history.csv")).unwrap();
+    let lines: Vec<&str> = history.lines().collect();
+    assert_eq!(
+        lines[0],
+        "step,loss,silhouette_loss,regularizer_loss,lr,steps_per_second,wall_seconds"
+    );
+    assert_eq!(lines.len(), 5, "{history}");
+    assert!(lines[4].starts_with("4,"), "{history}");
+    // objects.csv: a row per prediction (1 object × 2 views), the meshed one with its mesh.
+    let objects = std::fs::read_to_string(run.join("objects.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = objects.lines().map(|l| l.split(',').collect()).collect();
+    let header = &rows[0];
+    assert_eq!(rows.len(), 3, "{objects}");
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let meshed: Vec<_> = rows[1..]
+        .iter()
+        .filter(|r| !r[col("mesh_iou")].is_empty())
+        .collect();
+    assert_eq!(meshed.len(), 1, "{objects}");
+    let mesh_file = run.join(meshed[0][col("mesh_file")]);
+    assert!(
+        mesh_file.starts_with(run.join("meshes/03001627")) && mesh_file.is_file(),
+        "{}",
+        mesh_file.display()
+    );
+    for r in &rows[1..] {
+        let iou: f32 = r[col("iou")].parse().unwrap();
+        assert!((0.0..=1.0).contains(&iou), "{objects}");
+    }
 
     for name in [
         "config.toml",

@@ -33,10 +33,20 @@ fn assert_full_method(name: &str, exp: &Experiment) {
         "{name}"
     );
     assert_eq!(s(&["probe", "assignment"]), "boundary_aware", "{name}");
-    assert_eq!(s(&["regularizer", "type"]), "normal_consistency", "{name}");
-    assert!((f(&["regularizer", "p"]) - 0.8).abs() < 1e-6, "{name}");
-    assert!((f(&["regularizer", "delta"]) - 0.03).abs() < 1e-6, "{name}");
-    assert!(f(&["regularizer", "weight"]) > 0.0, "{name}");
+    assert_eq!(
+        s(&["regularizers", "normals", "type"]),
+        "normal_consistency",
+        "{name}"
+    );
+    assert!(
+        (f(&["regularizers", "normals", "p"]) - 0.8).abs() < 1e-6,
+        "{name}"
+    );
+    assert!(
+        (f(&["regularizers", "normals", "delta"]) - 0.03).abs() < 1e-6,
+        "{name}"
+    );
+    assert!(f(&["regularizers", "normals", "weight"]) > 0.0, "{name}");
 }
 
 fn root() -> &'static Path {
@@ -87,7 +97,10 @@ fn every_shipped_experiment_file_loads() {
     let sdf = load_experiment(&root().join("sdf/single-view.toml")).unwrap();
     let t = resolved(&sdf);
     assert_eq!(get(&t, &["model", "type"]).as_str(), Some("sdf"));
-    assert_eq!(get(&t, &["regularizer", "type"]).as_str(), Some("eikonal"));
+    assert_eq!(
+        get(&t, &["regularizers", "eikonal", "type"]).as_str(),
+        Some("eikonal")
+    );
 }
 
 /// The eikonal term on an occupancy network is a config error that says what it needs.
@@ -104,7 +117,7 @@ fn eikonal_without_a_signed_distance_is_rejected_on_load() {
     let e = format!("{:#}", load_experiment(&path).unwrap_err());
     assert!(
         e.contains("occupancy-eikonal.toml")
-            && e.contains("regularizer")
+            && e.contains("regularizers.eikonal")
             && e.contains("signed distance"),
         "{e}"
     );

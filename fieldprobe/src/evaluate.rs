@@ -7,6 +7,7 @@ use std::path::Path;
 
 use anyhow::Result;
 use burn::prelude::*;
+use fieldprobe_core::data::dataset::write_atomic;
 use fieldprobe_core::data::voxelize::voxelize_nmr;
 use fieldprobe_core::data::{Category, TriMesh, VoxelGrid};
 use fieldprobe_core::eval::surface::{
@@ -16,6 +17,7 @@ use fieldprobe_core::eval::{
     encode_views, extract_field_mesh, mean_shape, object_hull, predict_all_views,
     render_field_silhouette,
 };
+use fieldprobe_core::extract::write_ply;
 use fieldprobe_core::field::Field;
 use fieldprobe_core::geometry::NUM_VIEWS;
 use fieldprobe_core::probe::Aggregator;
@@ -148,11 +150,38 @@ pub fn score_mesh(
     (iou, surface)
 }
 
+/// The scores of one prediction (an object seen from one input view): a row of `objects.csv`.
+/// Mesh columns are empty for views that were not meshed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PredictionScores {
+    pub category: String,
+    pub object: String,
+    /// The input view (empty for a per-object fit, which reads no image).
+    pub view: Option<usize>,
+    /// Max-pool IoU (the NMR protocol).
+    pub iou: f32,
+    /// The same prediction read at voxel centres.
+    pub centre_iou: f32,
+    /// Share of the predicted voxels outside the object's 24-view visual hull.
+    pub outside_hull: f32,
+    /// The object's 24-view visual hull IoU (the same on every row of the object).
+    pub visual_hull_iou: f32,
+    /// NMR-protocol IoU of the extracted mesh.
+    pub mesh_iou: Option<f32>,
+    pub chamfer_l1: Option<f32>,
+    pub fscore: Option<f32>,
+    pub normal_consistency: Option<f32>,
+    /// The saved mesh, relative to the run directory (`eval.save_meshes`).
+    pub mesh_file: Option<String>,
+}
+
 /// What [`evaluate`] measured, and the meshes a report can show without extracting them again.
 #[derive(Debug, Default)]
 pub struct Evaluation {
     /// Per category name.
     pub per_category: BTreeMap<String, CategoryMetrics>,
+    /// Every prediction's scores, in evaluation order (what `objects.csv` holds).
+    pub predictions: Vec<PredictionScores>,
     /// The mesh of the first evaluated view of each of the first `eval.gallery_objects` test
     /// objects per category (what `gallery.png` shows), keyed by `(category name, object id)`;
     /// empty when `eval.mesh_views` is 0 (no meshes were extracted).
@@ -168,8 +197,10 @@ pub fn gallery_key(category: Category, id: &str) -> (String, String) {
 }
 
 /// Evaluates `model` (in evaluation mode, on the plain `device`) on every category (field
-/// silhouettes through `aggregator`, the run's); `mesh_dir`
-/// is the dataset's `meshes/` folder (ground-truth meshes for the surface metrics), if any.
+/// silhouettes through `aggregator`, the run's); `mesh_dir` is the dataset's `meshes/` folder
+/// (ground-truth meshes for the surface metrics), if any; with `save_to` (a run directory) every
+/// extracted mesh is written under its `meshes/` as it is made.
+#[allow(clippy::too_many_arguments)]
 pub fn evaluate(
     model: &dyn Field,
     aggregator: &dyn Aggregator,
@@ -177,10 +208,12 @@ pub fn evaluate(
     cfg: &EvalConfig,
     per_object_fit: bool,
     mesh_dir: Option<&Path>,
+    save_to: Option<&Path>,
     device: &Device,
 ) -> Result<Evaluation> {
     let views = eval_views(cfg.views);
     let mut gallery_meshes = BTreeMap::new();
+    let mut predictions = Vec::new();
     let total: usize = data.iter().map(|c| c.eval.len()).sum();
     let bar = crate::progress::bar("eval", total, 0);
     let mut out = BTreeMap::new();
@@ -208,13 +241,31 @@ pub fn evaluate(
             let latents = encode_views(model, obj, device);
             let preds = predict_all_views(model, latents.as_ref(), &views, &protocol, device);
             let hull = object_hull(obj, &protocol).maxpool;
+            let hull_iou = hull.iou(gt);
+            let first_row = predictions.len();
+            for (j, p) in preds.iter().enumerate() {
+                predictions.push(PredictionScores {
+                    category: cat.category.name().to_string(),
+                    object: id.clone(),
+                    view: latents.is_some().then(|| views[j]),
+                    iou: p.maxpool.iou(gt),
+                    centre_iou: p.centre.iou(gt),
+                    outside_hull: 1.0 - p.maxpool.fraction_inside(&hull),
+                    visual_hull_iou: hull_iou,
+                    mesh_iou: None,
+                    chamfer_l1: None,
+                    fscore: None,
+                    normal_consistency: None,
+                    mesh_file: None,
+                });
+            }
             let obj_iou = mean(&preds.iter().map(|p| p.maxpool.iou(gt)).collect::<Vec<_>>());
             acc.iou.push(obj_iou);
             acc.centre.extend(preds.iter().map(|p| p.centre.iou(gt)));
             acc.outside
                 .extend(preds.iter().map(|p| 1.0 - p.maxpool.fraction_inside(&hull)));
             acc.per_object.push((id.clone(), obj_iou));
-            acc.hull.push(hull.iou(gt));
+            acc.hull.push(hull_iou);
             if let Some(m) = &mean_hull {
                 acc.mean_shape.push(m.iou(gt));
             }
@@ -246,6 +297,16 @@ pub fn evaluate(
                     let mesh = extract_field_mesh(model, z.as_ref(), &cfg.extract, device);
                     let (iou, surface) =
                         score_mesh(&mesh, gt, gt_surf.as_ref(), cfg, 1000 + o as u64);
+                    let row = &mut predictions[first_row + i];
+                    row.mesh_iou = Some(iou);
+                    row.chamfer_l1 = surface.map(|m| m.chamfer_l1);
+                    row.fscore = surface.map(|m| m.fscore);
+                    row.normal_consistency = surface.map(|m| m.normal_consistency);
+                    if let Some(run_dir) = save_to {
+                        let file = saved_mesh_path(cat.category, id, row.view);
+                        write_ply(&mesh, &run_dir.join(&file))?;
+                        row.mesh_file = Some(file);
+                    }
                     mesh_scores.push(MeshScore {
                         iou,
                         grid_iou: preds[i].maxpool.iou(gt),
@@ -302,8 +363,30 @@ pub fn evaluate(
     bar.finish();
     Ok(Evaluation {
         per_category: out,
+        predictions,
         gallery_meshes,
     })
+}
+
+/// Where a saved test mesh goes in a run directory: `meshes/<synset>/<id>_v<view>.ply`, or
+/// `meshes/<synset>/<id>.ply` for a per-object fit (no input view).
+pub fn saved_mesh_path(category: Category, id: &str, view: Option<usize>) -> String {
+    match view {
+        Some(v) => format!("meshes/{}/{id}_v{v:02}.ply", category.synset()),
+        None => format!("meshes/{}/{id}.ply", category.synset()),
+    }
+}
+
+/// Writes `objects.csv`: one row of [`PredictionScores`] per prediction (atomically).
+pub fn write_predictions_csv(path: &Path, rows: &[PredictionScores]) -> Result<()> {
+    write_atomic(path, |w| {
+        let mut csv = csv::Writer::from_writer(w);
+        for r in rows {
+            csv.serialize(r)?;
+        }
+        csv.flush()
+    })?;
+    Ok(())
 }
 
 /// A category's per-object (`iou`, `hull`, …) and per-prediction (`centre`, `outside`) scores.

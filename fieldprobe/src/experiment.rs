@@ -27,6 +27,7 @@
 //! steps = 1000
 //! ```
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -42,8 +43,9 @@ use fieldprobe_core::probe::{
 use fieldprobe_core::regularize::RegularizerConfig;
 use fieldprobe_core::train::{Components, TrainSpec};
 use fieldprobe_models::SingleViewConfig;
-use fieldprobe_regularizers::NoRegularizer;
 use serde::{Deserialize, Serialize};
+
+use crate::overrides::Overrides;
 
 /// A whole experiment file.
 #[derive(Debug, Serialize, Deserialize)]
@@ -62,9 +64,11 @@ pub struct Experiment {
     #[serde(default = "single_view")]
     pub model: Box<dyn FieldModelConfig>,
     pub probe: ProbeConfig,
-    /// `[regularizer]` table; none by default.
-    #[serde(default = "no_regularizer")]
-    pub regularizer: Box<dyn RegularizerConfig>,
+    /// `[regularizers.<name>]` tables: the terms added to the silhouette loss, each under a name
+    /// of the file's choosing (`[regularizers.normals] type = "normal_consistency"`). None by
+    /// default: no table is the paper's "no regularizer", and the loss is `L_sil` alone.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub regularizers: BTreeMap<String, Box<dyn RegularizerConfig>>,
     pub train: TrainSpec,
     #[serde(default)]
     pub eval: EvalConfig,
@@ -72,10 +76,6 @@ pub struct Experiment {
 
 fn single_view() -> Box<dyn FieldModelConfig> {
     Box::new(SingleViewConfig::default())
-}
-
-fn no_regularizer() -> Box<dyn RegularizerConfig> {
-    Box::new(NoRegularizer {})
 }
 
 fn max_pool() -> Box<dyn AggregatorConfig> {
@@ -222,6 +222,15 @@ pub struct EvalConfig {
     /// Test objects per category shown in `gallery.png` (0: no gallery).
     #[serde(default = "gallery_objects")]
     pub gallery_objects: usize,
+    /// Keep every extracted test mesh in the run directory, as
+    /// `meshes/<synset>/<id>_v<view>.ply` (`<id>.ply` for a per-object fit), to open in
+    /// MeshLab or trimesh or to score with other tools (default true; about 50–150 kB each).
+    #[serde(default = "yes")]
+    pub save_meshes: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl EvalConfig {
@@ -276,6 +285,7 @@ impl Default for EvalConfig {
             surface_points: surface_points(),
             fscore_threshold: fscore_threshold(),
             gallery_objects: gallery_objects(),
+            save_meshes: yes(),
         }
     }
 }
@@ -283,12 +293,36 @@ impl Default for EvalConfig {
 impl Experiment {
     /// Reads and validates an experiment file.
     pub fn load(path: &Path) -> Result<Self> {
+        Self::load_with(path, &Overrides::default())
+    }
+
+    /// Reads an experiment file, applies `--set` overrides and validates the result; errors
+    /// name the file (and say when overrides were applied).
+    pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Self> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read experiment file {}", path.display()))?;
-        let exp: Experiment =
-            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        exp.validate()
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        let file = path.display();
+        let exp: Experiment = if overrides.is_empty() {
+            // Straight from the text: errors point at a line and column of the file.
+            toml::from_str(&text).map_err(|e| {
+                let hint = toml::from_str::<toml::Table>(&text)
+                    .ok()
+                    .and_then(|t| renamed_key_hint(&t));
+                anyhow::anyhow!("{file}: {}", hint.unwrap_or_else(|| e.to_string()))
+            })?
+        } else {
+            let mut doc: toml::Table =
+                toml::from_str(&text).map_err(|e| anyhow::anyhow!("{file}: {e}"))?;
+            overrides.apply(&mut doc);
+            let hint = renamed_key_hint(&doc);
+            toml::Value::Table(doc)
+                .try_into()
+                .map_err(|e: toml::de::Error| {
+                    let e = hint.unwrap_or_else(|| e.to_string().trim().replace('\n', " "));
+                    anyhow::anyhow!("{file} with --set {}: {e}", overrides.written().join(" "))
+                })?
+        };
+        exp.validate().map_err(|e| anyhow::anyhow!("{file}: {e}"))?;
         Ok(exp)
     }
 
@@ -338,19 +372,21 @@ impl Experiment {
                     .into(),
             );
         }
-        self.regularizer
-            .check_model(self.model.as_ref())
-            .map_err(|e| format!("regularizer: {e}"))?;
+        for (name, r) in &self.regularizers {
+            r.check_model(self.model.as_ref())
+                .map_err(|e| format!("regularizers.{name}: {e}"))?;
+        }
         self.components()?;
         Ok(())
     }
 
     /// Builds the pluggable components (validating their settings).
     pub fn components(&self) -> std::result::Result<Components, String> {
-        let regularizer = self
-            .regularizer
-            .build()
-            .map_err(|e| format!("regularizer: {e}"))?;
+        let regularizers = self
+            .regularizers
+            .iter()
+            .map(|(name, r)| r.build().map_err(|e| format!("regularizers.{name}: {e}")))
+            .collect::<std::result::Result<_, _>>()?;
         Ok(Components {
             ray_sampler: self
                 .probe
@@ -367,7 +403,7 @@ impl Experiment {
                 .aggregator
                 .build()
                 .map_err(|e| format!("probe.aggregator: {e}"))?,
-            regularizer: Some(regularizer),
+            regularizers,
         })
     }
 
@@ -377,10 +413,26 @@ impl Experiment {
     }
 }
 
+/// What to write instead of a key that earlier versions of the experiment format had, if `table`
+/// has one; the plain "unknown field" error would not say.
+pub fn renamed_key_hint(table: &toml::Table) -> Option<String> {
+    table.contains_key("regularizer").then(|| {
+        "the `[regularizer]` table is now `[regularizers.<name>]`, one table per term under a \
+         name of your choice (e.g. `[regularizers.normals]` with `type = \"normal_consistency\"`); \
+         no regularizer is no such table (in a variant: `regularizers = {}`)"
+            .to_string()
+    })
+}
+
 /// Loads an experiment or explains that a TOML path was expected.
 pub fn load_experiment(path: &Path) -> Result<Experiment> {
+    load_experiment_with(path, &Overrides::default())
+}
+
+/// [`load_experiment`] with `--set` overrides.
+pub fn load_experiment_with(path: &Path, overrides: &Overrides) -> Result<Experiment> {
     if path.extension().is_none_or(|e| e != "toml") {
         bail!("{}: expected an experiment .toml file", path.display());
     }
-    Experiment::load(path)
+    Experiment::load_with(path, overrides)
 }

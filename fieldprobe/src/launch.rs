@@ -6,9 +6,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-use crate::experiment::load_experiment;
+use crate::experiment::load_experiment_with;
 use crate::loader::{ensure_dataset, load};
+use crate::lock::RunLock;
 use crate::outputs::{NoOutputs, Outputs};
+use crate::overrides::Overrides;
 use crate::run::{FileOutcome, RunOptions, check_can_start, prepare_dir, run_one};
 use crate::variants::has_variants;
 
@@ -23,7 +25,7 @@ pub fn run_file(file: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result
             file.display()
         );
     }
-    let mut exp = load_experiment(file)?;
+    let mut exp = load_experiment_with(file, &opts.overrides)?;
     if let Some(seed) = opts.seed {
         exp.seed = seed;
     }
@@ -31,6 +33,7 @@ pub fn run_file(file: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result
         .out
         .clone()
         .unwrap_or_else(|| Path::new("runs").join(&exp.name));
+    let _lock = RunLock::acquire(&dir)?;
     check_can_start(&dir, opts.resume)?;
     prepare_dir(&exp, &dir)?;
 
@@ -93,8 +96,11 @@ pub fn run_shrunk(shipped: &Path, dir: &Path, steps: usize) -> Result<PathBuf> {
     Ok(out)
 }
 
+/// The arguments [`main_with_linked_plugins`] takes.
+const USAGE: &str = "FILE.toml [--out DIR] [--resume] [--set KEY=VALUE]...";
+
 /// A minimal `main` for a binary that links its own plugins: `BIN FILE.toml [--out DIR]
-/// [--resume]` runs the file with [`NoOutputs`] (numbers and checkpoints, no report or
+/// [--resume] [--set KEY=VALUE]` runs the file with [`NoOutputs`] (numbers and checkpoints, no report or
 /// pictures: those are the `experiments` CLI's) and prints where `metrics.json` went and the
 /// mean IoU; `BIN list` prints the linked components. Link the plugin crate
 /// (`use my_plugin as _;`) in that binary first.
@@ -106,6 +112,7 @@ pub fn main_with_linked_plugins() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let mut file = None;
     let mut opts = RunOptions::default();
+    let mut sets = Vec::new();
     while let Some(a) = args.next() {
         match a.as_str() {
             "--resume" => opts.resume = true,
@@ -113,11 +120,13 @@ pub fn main_with_linked_plugins() -> Result<()> {
                 let dir = args.next().context("--out needs a directory")?;
                 opts.out = Some(dir.into());
             }
+            "--set" => sets.push(args.next().context("--set needs KEY=VALUE")?),
             _ if file.is_none() && !a.starts_with("--") => file = Some(PathBuf::from(a)),
-            _ => bail!("unexpected argument '{a}'; usage: FILE.toml [--out DIR] [--resume]"),
+            _ => bail!("unexpected argument '{a}'; usage: {USAGE}"),
         }
     }
-    let file = file.context("usage: FILE.toml [--out DIR] [--resume]")?;
+    opts.overrides = Overrides::parse(&sets)?;
+    let file = file.with_context(|| format!("usage: {USAGE}"))?;
     let done = run_file(&file, &opts, &NoOutputs)?;
     if let Some(m) = &done.metrics {
         println!("mean IoU {:.3} (max-pool protocol)", m.mean_iou);

@@ -14,10 +14,13 @@
 //! and the pipeline that turns an experiment file into results, which the `experiments` CLI only
 //! drives:
 //!
-//! * [`experiment`] — the TOML experiment file; [`variants`] — ablation files (`[[variants]]`).
-//! * [`make`] — datasets in the published layout; [`loader`] — an experiment's objects.
+//! * [`experiment`] — the TOML experiment file; [`variants`] — ablation files (`[[variants]]`);
+//!   [`overrides`] — `--set key=value` on top of either.
+//! * [`make`] — datasets in the published layout; [`loader`] — an experiment's objects;
+//!   [`lock`] — one process per run directory.
 //! * [`launch`] — an experiment file from start to end ([`run_file`]); [`run`] — train + evaluate
-//!   one experiment into a run directory; [`metrics`] — what it measured; [`run_dir`] — open one.
+//!   one experiment into a run directory; [`metrics`] — what it measured; [`history`] — its
+//!   `history.csv`; [`run_dir`] — open one.
 //! * [`evaluate`] — the NMR protocol with its references and mesh metrics, per category.
 //! * [`ablation`] — every entry × seed of an ablation, and orderings vs the paper.
 //! * [`outputs`] — hooks for reports and pictures; [`progress`] — hooks for progress display.
@@ -37,11 +40,14 @@
 pub mod ablation;
 pub mod evaluate;
 pub mod experiment;
+pub mod history;
 pub mod launch;
 pub mod loader;
+pub mod lock;
 pub mod make;
 pub mod metrics;
 pub mod outputs;
+pub mod overrides;
 pub mod progress;
 pub mod run;
 pub mod run_dir;

@@ -1,6 +1,7 @@
 //! One run: train, evaluate, and write the run directory (`config.toml`, `input.json`,
-//! `checkpoints/`, `metrics.json`, and whatever the [`Outputs`] add: the CLI's `report.md` and
-//! pictures). [`crate::launch::run_file`] runs a file through [`run_one`]; an ablation runs it
+//! `checkpoints/`, `history.csv` (as training goes), `metrics.json`, `objects.csv` (every
+//! prediction's scores), `meshes/` (the test meshes, unless `eval.save_meshes = false`), and
+//! whatever the [`Outputs`] add: the CLI's `report.md` and pictures). [`crate::launch::run_file`] runs a file through [`run_one`]; an ablation runs it
 //! per entry and seed.
 
 use std::path::{Path, PathBuf};
@@ -13,13 +14,15 @@ use fieldprobe_core::field::Field;
 use fieldprobe_core::object::ObjectViews;
 use fieldprobe_core::train::{Components, StepStats, TrainRun, Trainer, checkpoint};
 use serde::{Deserialize, Serialize};
-use tracing::info;
+use tracing::{info, warn};
 
-use crate::evaluate::evaluate;
+use crate::evaluate::{evaluate, write_predictions_csv};
 use crate::experiment::Experiment;
+use crate::history::{self, HistoryLog};
 use crate::loader::CategoryData;
 use crate::metrics::{Metrics, Training, mean_of};
 use crate::outputs::{FinishedRun, Outputs};
+use crate::overrides::Overrides;
 use crate::progress;
 
 /// How to run an experiment file (the CLI's flags).
@@ -36,6 +39,8 @@ pub struct RunOptions {
     /// Train with this seed instead of the file's (ablation files: run only this one of
     /// `seeds`).
     pub seed: Option<u64>,
+    /// `--set key=value` changes to the file's keys (every entry of an ablation).
+    pub overrides: Overrides,
 }
 
 /// All training objects of all categories, in one pool.
@@ -181,8 +186,10 @@ pub fn evaluate_run(
         &exp.eval,
         per_object_fit,
         mesh_dir,
+        exp.eval.save_meshes.then_some(dir),
         &selected.device,
     )?;
+    write_predictions_csv(&dir.join("objects.csv"), &evaluation.predictions)?;
     let eval_seconds = t0.elapsed().as_secs_f64();
     let per_category = evaluation.per_category;
     let metrics = Metrics {
@@ -266,9 +273,22 @@ fn train(
         uses_image: exp.model.uses_image(),
         seed: exp.seed,
     };
+    let dir = ckpt.parent().unwrap_or(Path::new("."));
+    let mut history = HistoryLog::open(dir, &trainer)?;
+    // A history that cannot be written (a full disk) is reported once; training goes on, and
+    // the checkpoints say whether the disk is usable.
+    let mut history_error = None;
     let bar = progress::bar("train", exp.train.steps, trainer.step);
     let t0 = Instant::now();
-    let mut show = |t: &Trainer, s: &StepStats| bar.set(t.step, format!("loss {:.4}", s.loss));
+    let mut show = |t: &Trainer, s: &StepStats| {
+        bar.set(t.step, format!("loss {:.4}", s.loss));
+        if history_error.is_none()
+            && let Err(e) = history.record(t, exp.train.lr_at(t.step.saturating_sub(1)))
+        {
+            warn!("{e:#}; {} is not updated any more", history::FILE);
+            history_error = Some(e);
+        }
+    };
     trainer.fit(&run, Some(ckpt), &mut show).map_err(|e| {
         bar.abandon();
         anyhow::anyhow!("{e} (checkpoints: {})", ckpt.display())

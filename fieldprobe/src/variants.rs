@@ -1,17 +1,23 @@
 //! Ablation files: an experiment (the *base*) plus `[[variants]]`, each overriding a few keys of
-//! the base. Ablations are base plus deltas, never copied files.
+//! the base. Ablations are base plus deltas, never copied files. The merge is hand-written (fifty
+//! lines over `toml::Table`) because its rules are the project's own (a new `type` or an empty table
+//! replaces); generic layered-config crates (`figment`, `config`) merge tables key by key only.
 //!
 //! ```toml
 //! name = "ablation-regularizer"
 //! base_name = "p=0.8"              # the base's row name (default "base")
 //! base_paper_iou = 0.548           # the paper's number for the base's row (optional)
 //! paper_table = "Table 2, chair"   # where the paper's numbers come from (optional)
-//! # ... the base: [data], [model], [probe], [regularizer], [train], [eval] as in any experiment
+//! # ... the base: [data], [model], [probe], [regularizers.*], [train], [eval] as in any experiment
 //!
 //! [[variants]]
 //! name = "p=1.0"                   # required, a plain name (it also names the run sub-directory)
 //! paper_iou = 0.524                # optional
-//! regularizer = { type = "normal_consistency", p = 1.0 }
+//! regularizers.normals = { p = 1.0 }
+//!
+//! [[variants]]
+//! name = "no regularizer"
+//! regularizers = {}                # an empty table replaces: no regularizer at all
 //!
 //! [[variants]]
 //! name = "normal sampling"
@@ -26,8 +32,10 @@
 //! * **a table whose `type` differs from the base table's `type` replaces it entirely** (a
 //!   component switch must not inherit the old component's fields; the new component's defaults
 //!   apply). A table with the *same* `type` as the base's merges like any other table, so
-//!   `regularizer = { type = "normal_consistency", p = 1.0 }` over a `normal_consistency` base
-//!   keeps the base's `weight`, `delta`, `max_anchors`;
+//!   `regularizers.normals = { type = "normal_consistency", p = 1.0 }` over a
+//!   `normal_consistency` base keeps the base's `weight`, `delta`, `max_anchors`;
+//! * **an empty table replaces the base's table** (merged, it would change nothing, so it can
+//!   only mean "none of these"): `regularizers = {}` is the run without regularizers;
 //! * anything else (numbers, strings, arrays) replaces the base's value.
 //!
 //! The base is the first entry, named by `base_name`. The reserved top-level keys (`variants`,
@@ -39,7 +47,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, anyhow, bail};
 use toml::{Table, Value};
 
-use crate::experiment::Experiment;
+use crate::experiment::{Experiment, renamed_key_hint};
+use crate::overrides::Overrides;
 
 /// Top-level keys of an ablation file that are not experiment keys.
 pub const RESERVED_TOP: [&str; 5] = [
@@ -108,13 +117,23 @@ impl AblationFile {
 
     /// Reads and resolves an ablation file; errors name the file (and the variant).
     pub fn load(path: &Path) -> Result<Self> {
+        Self::load_with(path, &Overrides::default())
+    }
+
+    /// [`AblationFile::load`] with `--set` overrides applied to every entry, last.
+    pub fn load_with(path: &Path, overrides: &Overrides) -> Result<Self> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read experiment file {}", path.display()))?;
-        Self::parse(&text, path)
+        Self::parse_with(&text, path, overrides)
     }
 
     /// Resolves the text of an ablation file (`path` only names it in errors).
     pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        Self::parse_with(text, path, &Overrides::default())
+    }
+
+    /// [`AblationFile::parse`] with `--set` overrides applied to every entry, last.
+    pub fn parse_with(text: &str, path: &Path, overrides: &Overrides) -> Result<Self> {
         let file = path.display();
         let mut top: Table = toml::from_str(text).map_err(|e| anyhow!("{file}: {e}"))?;
         let variants = match top.remove("variants") {
@@ -165,9 +184,9 @@ impl AblationFile {
         let mut entries = vec![resolve(
             &top,
             &Table::new(),
+            overrides,
             &name,
-            &base_name,
-            base_paper,
+            (&base_name, base_paper),
             path,
             "the base",
         )?];
@@ -192,7 +211,15 @@ impl AblationFile {
                 bail!("{file}: variant '{vname}' overrides no keys");
             }
             let what = format!("variant '{vname}'");
-            entries.push(resolve(&top, &v, &name, &vname, paper, path, &what)?);
+            entries.push(resolve(
+                &top,
+                &v,
+                overrides,
+                &name,
+                (&vname, paper),
+                path,
+                &what,
+            )?);
         }
         for (i, a) in entries.iter().enumerate() {
             for b in &entries[..i] {
@@ -255,7 +282,9 @@ pub fn slug(name: &str) -> String {
 pub fn merge(base: &mut Table, over: &Table) {
     for (k, v) in over {
         match (base.get_mut(k), v) {
-            (Some(Value::Table(b)), Value::Table(o)) if !switches_type(b, o) => merge(b, o),
+            (Some(Value::Table(b)), Value::Table(o)) if !o.is_empty() && !switches_type(b, o) => {
+                merge(b, o)
+            }
             _ => {
                 base.insert(k.clone(), v.clone());
             }
@@ -269,12 +298,14 @@ fn switches_type(base: &Table, over: &Table) -> bool {
         .is_some_and(|t| base.get("type") != Some(t))
 }
 
+/// The entry `over` of an ablation file: the base with the entry's keys merged in, then the
+/// command line's `overrides`; `(name, paper_iou)` of the entry.
 fn resolve(
     base: &Table,
     over: &Table,
+    overrides: &Overrides,
     file_name: &str,
-    name: &str,
-    paper_iou: Option<f32>,
+    (name, paper_iou): (&str, Option<f32>),
     path: &Path,
     what: &str,
 ) -> Result<Variant> {
@@ -287,10 +318,13 @@ fn resolve(
     }
     let mut merged = base.clone();
     merge(&mut merged, over);
+    overrides.apply(&mut merged);
     merged.insert("name".into(), Value::String(format!("{file_name}-{slug}")));
-    let experiment: Experiment = Value::Table(merged)
-        .try_into()
-        .map_err(|e| anyhow!("{file}: {what}: {}", one_line(&e.to_string())))?;
+    let hint = renamed_key_hint(&merged);
+    let experiment: Experiment = Value::Table(merged).try_into().map_err(|e| {
+        let e = hint.unwrap_or_else(|| one_line(&e.to_string()));
+        anyhow!("{file}: {what}: {e}")
+    })?;
     experiment
         .validate()
         .map_err(|e| anyhow!("{file}: {what}: {e}"))?;
@@ -379,7 +413,7 @@ assignment = "boundary_aware"
 ray_sampler = { type = "importance", bandwidth = 0.01, uniform_fraction = 0.1 }
 anchor_sampler = { type = "importance", resolution = 16 }
 
-[regularizer]
+[regularizers.normals]
 type = "normal_consistency"
 p = 0.8
 max_anchors = 64
@@ -402,18 +436,18 @@ lr = 1e-3
     }
 
     #[test]
-    fn tables_merge_key_by_key_and_a_new_type_replaces() {
+    fn tables_merge_key_by_key_and_a_new_type_or_an_empty_table_replaces() {
         let mut base: Table = toml::from_str(
-            "a = 1\n[t]\nx = 1\ny = { p = 1, q = 2 }\n[c]\ntype = \"u\"\nk = 1\n[d]\ntype = \"u\"\nk = 1\nj = 2",
+            "a = 1\n[t]\nx = 1\ny = { p = 1, q = 2 }\n[c]\ntype = \"u\"\nk = 1\n[d]\ntype = \"u\"\nk = 1\nj = 2\n[e.one]\nk = 1",
         )
         .unwrap();
         let over: Table = toml::from_str(
-            "a = 2\nnew = [1, 2]\nt = { y = { q = 3 } }\nc = { type = \"v\", m = 5 }\nd = { type = \"u\", k = 7 }",
+            "a = 2\nnew = [1, 2]\nt = { y = { q = 3 } }\nc = { type = \"v\", m = 5 }\nd = { type = \"u\", k = 7 }\ne = {}",
         )
         .unwrap();
         merge(&mut base, &over);
         let want: Table = toml::from_str(
-            "a = 2\nnew = [1, 2]\n[t]\nx = 1\ny = { p = 1, q = 3 }\n[c]\ntype = \"v\"\nm = 5\n[d]\ntype = \"u\"\nk = 7\nj = 2",
+            "a = 2\nnew = [1, 2]\ne = {}\n[t]\nx = 1\ny = { p = 1, q = 3 }\n[c]\ntype = \"v\"\nm = 5\n[d]\ntype = \"u\"\nk = 7\nj = 2",
         )
         .unwrap();
         assert_eq!(base, want);
@@ -430,11 +464,11 @@ probe = { ray_sampler = { type = "normal" }, anchor_sampler = { type = "normal" 
 
 [[variants]]
 name = "p=2.0"
-regularizer = { type = "normal_consistency", p = 2.0 }
+regularizers.normals = { type = "normal_consistency", p = 2.0 }
 
 [[variants]]
 name = "no regularizer"
-regularizer = { type = "none" }
+regularizers = {}
 "#,
         )
         .unwrap();
@@ -454,10 +488,7 @@ regularizer = { type = "none" }
         assert_eq!(f.entries[1].paper_iou, Some(0.482));
         assert_eq!(f.entries[2].paper_iou, None);
         assert!(f.base().overrides.is_empty());
-        assert_eq!(
-            f.entries[3].overrides,
-            ["regularizer = { type = \"none\" }"]
-        );
+        assert_eq!(f.entries[3].overrides, ["regularizers = {}"]);
 
         let base = &f.base().experiment;
         assert_eq!(base.name, "abl-full-model");
@@ -490,14 +521,22 @@ regularizer = { type = "none" }
             toml_of(&base.probe.ray_sampler)
         );
         // Same component type: p changes, the base's other regularizer fields stay.
-        let reg = toml_of(&f.entries[2].experiment.regularizer);
+        let reg = toml_of(&f.entries[2].experiment.regularizers);
         assert!(
-            reg.contains(r#""p":2.0"#) && reg.contains(r#""max_anchors":64"#),
+            reg.starts_with(r#"{"normals":{"#)
+                && reg.contains(r#""p":2.0"#)
+                && reg.contains(r#""max_anchors":64"#),
             "{reg}"
         );
-        assert_eq!(
-            toml_of(&f.entries[3].experiment.regularizer),
-            r#"{"type":"none"}"#
+        assert_eq!(base.regularizers.len(), 1);
+        assert!(f.entries[3].experiment.regularizers.is_empty());
+        assert!(
+            f.entries[3]
+                .experiment
+                .components()
+                .unwrap()
+                .regularizers
+                .is_empty()
         );
     }
 
@@ -508,7 +547,12 @@ regularizer = { type = "none" }
                 "probe = { ray_sampler = { type = \"importance\", bandwidht = 0.01 } }",
                 "bandwidht",
             ),
-            ("regularizr = { type = \"none\" }", "regularizr"),
+            ("regularizrs = {}", "regularizrs"),
+            ("regularizers.normals = { pp = 2.0 }", "pp"),
+            (
+                "regularizers.normals = { type = \"none\" }",
+                "unknown variant `none`",
+            ),
             ("train = { stepz = 5 }", "stepz"),
             ("probe = { ray_sampler = { type = \"nromal\" } }", "nromal"),
         ] {
@@ -523,11 +567,19 @@ regularizer = { type = "none" }
             );
         }
         // Values the types cannot check are validated per variant too.
-        let err = parse("[[variants]]\nname = \"bad p\"\nregularizer = { p = -1.0 }\n")
+        let err = parse("[[variants]]\nname = \"bad p\"\nregularizers.normals = { p = -1.0 }\n")
             .unwrap_err()
             .to_string();
         assert!(
-            err.contains("variant 'bad p'") && err.contains("regularizer.p"),
+            err.contains("variant 'bad p'") && err.contains("regularizers.normals: p must be"),
+            "{err}"
+        );
+        // The table of earlier versions gets a hint, not only "unknown field".
+        let err = parse("[[variants]]\nname = \"old\"\nregularizer = { p = 1.0 }\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("variant 'old'") && err.contains("[regularizers.<name>]"),
             "{err}"
         );
     }

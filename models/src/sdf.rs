@@ -11,7 +11,7 @@
 //! * **β.** `β = β_min + exp(b)` with `b` a trained scalar, started at `beta`; `β_min` (1e-3, a
 //!   thirtieth of a voxel) keeps the sigmoid from becoming a step that has no gradient.
 //!
-//! Without an eikonal regularizer (`[regularizer] type = "eikonal"`) nothing makes `s` a
+//! Without an eikonal regularizer (`[regularizers.eikonal] type = "eikonal"`) nothing makes `s` a
 //! distance: only `−s/β` is constrained by silhouettes.
 
 use burn::module::Param;

@@ -2,14 +2,12 @@
 
 use burn::prelude::*;
 
-/// `regularizer.weight` must be a finite number ≥ 0; the error names the key.
+/// `weight` must be a finite number ≥ 0; the error names the key (the experiment adds the table).
 pub fn check_weight(weight: f32) -> Result<(), String> {
     if weight >= 0.0 && weight.is_finite() {
         Ok(())
     } else {
-        Err(format!(
-            "regularizer.weight must be a finite number ≥ 0, got {weight}"
-        ))
+        Err(format!("weight must be a finite number ≥ 0, got {weight}"))
     }
 }
 

@@ -18,7 +18,7 @@ use fieldprobe_core::register_component;
 use fieldprobe_core::regularize::{FieldQuery, Regularizer, RegularizerConfig};
 use serde::{Deserialize, Serialize};
 
-/// `[regularizer] type = "eikonal"`.
+/// `[regularizers.eikonal] type = "eikonal"`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Eikonal {
@@ -48,10 +48,7 @@ impl Eikonal {
     pub fn validate(&self) -> Result<(), String> {
         crate::common::check_weight(self.weight)?;
         if !(self.delta > 0.0 && self.delta < 0.1) {
-            return Err(format!(
-                "regularizer.delta must be in (0, 0.1), got {}",
-                self.delta
-            ));
+            return Err(format!("delta must be in (0, 0.1), got {}", self.delta));
         }
         Ok(())
     }

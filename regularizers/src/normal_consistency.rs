@@ -161,19 +161,13 @@ impl NormalConsistency {
     pub fn validate(&self) -> Result<(), String> {
         crate::common::check_weight(self.weight)?;
         if !(self.p > 0.0 && self.p.is_finite()) {
-            return Err(format!("regularizer.p must be positive, got {}", self.p));
+            return Err(format!("p must be positive, got {}", self.p));
         }
         if !(self.delta > 0.0 && self.delta.is_finite()) {
-            return Err(format!(
-                "regularizer.delta must be positive, got {}",
-                self.delta
-            ));
+            return Err(format!("delta must be positive, got {}", self.delta));
         }
         if !(self.epsilon > 0.0 && self.epsilon <= 0.5) {
-            return Err(format!(
-                "regularizer.epsilon must be in (0, 0.5], got {}",
-                self.epsilon
-            ));
+            return Err(format!("epsilon must be in (0, 0.5], got {}", self.epsilon));
         }
         Ok(())
     }

@@ -52,7 +52,8 @@ fn every_registered_component_builds_from_its_example() {
         (ComponentKind::Representation, "per_object"),
         (ComponentKind::Representation, "sdf"),
         (ComponentKind::Aggregator, "max"),
-        (ComponentKind::Regularizer, "none"),
+        (ComponentKind::Regularizer, "normal_consistency"),
+        (ComponentKind::Regularizer, "eikonal"),
     ] {
         assert!(
             names.contains(&expected),

@@ -15,6 +15,7 @@ use fieldprobe_core::object::ObjectViews;
 use fieldprobe_core::probe::{
     AssignmentPolicy, MaxPool, ObjectProbe, ProbeBatch, ProbeSpec, SoftMax,
 };
+use fieldprobe_core::regularize::Regularizer;
 use fieldprobe_core::train::{
     Components, PreparedStep, StepStats, TrainError, TrainRun, TrainSpec, Trainer, checkpoint,
     prepare_step, probe_loss, step_rng,
@@ -79,7 +80,7 @@ fn comps() -> Components {
         ray_sampler: Box::new(UniformRays {}),
         anchor_sampler: Box::new(UniformAnchors::default()),
         aggregator: Box::new(MaxPool {}),
-        regularizer: None,
+        regularizers: Vec::new(),
     }
 }
 
@@ -186,7 +187,7 @@ fn sdf_with_the_eikonal_term_learns_from_silhouettes() {
         ..SdfConfig::default()
     };
     let c = Components {
-        regularizer: Some(Box::new(Eikonal::default())),
+        regularizers: vec![Box::new(Eikonal::default())],
         ..comps()
     };
     let losses = train_with(&sdf, &c, &dev, &data, 60);
@@ -383,4 +384,71 @@ fn compacted_batches_give_the_same_loss_as_full_ones() {
         (full - compact).abs() <= 1e-6 * full.abs().max(1e-3),
         "{full} vs {compact}"
     );
+}
+
+/// Several regularizers: the loss is the silhouette term plus their sum, and none is the
+/// silhouette term alone.
+#[test]
+fn the_loss_is_the_silhouette_term_plus_every_regularizer() {
+    let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
+    let data = objects(1);
+    let dev = BackendChoice::Flex.select().unwrap().device;
+    let sdf = SdfConfig {
+        latent: 0,
+        decoder: Some(DecoderConfig {
+            hidden: vec![32, 32],
+            frequencies: 0,
+        }),
+        sphere: 0.0,
+        ..SdfConfig::default()
+    };
+    let t = Trainer::new(&sdf, &dev, 5);
+    let mut rng = step_rng(5, 0, 1);
+    let base = comps();
+    let probe = ObjectProbe::sample(
+        &data[0].supervision,
+        &SPEC,
+        base.ray_sampler.as_ref(),
+        base.anchor_sampler.as_ref(),
+        &mut rng,
+    );
+    let prepared = PreparedStep {
+        batch: ProbeBatch::assemble(&[probe], true),
+        images: None,
+        probe_seconds: 0.0,
+    };
+    let terms = |regularizers: Vec<Box<dyn Regularizer>>| {
+        let c = Components {
+            regularizers,
+            ..comps()
+        };
+        let (total, sil, reg) = probe_loss(t.model.as_ref(), &prepared, &c, &t.device);
+        (
+            total.into_scalar::<f32>(),
+            sil.into_scalar::<f32>(),
+            reg.map(|r| r.into_scalar::<f32>()),
+        )
+    };
+    let eikonal = |weight: f32| -> Box<dyn Regularizer> {
+        Box::new(Eikonal {
+            weight,
+            ..Eikonal::default()
+        })
+    };
+    let (none_total, none_sil, none_reg) = terms(Vec::new());
+    assert_eq!((none_total, none_reg), (none_sil, None));
+    let (_, _, one) = terms(vec![eikonal(0.1)]);
+    let (_, _, other) = terms(vec![eikonal(0.3)]);
+    let (total, sil, both) = terms(vec![eikonal(0.1), eikonal(0.3)]);
+    let (one, other, both) = (one.unwrap(), other.unwrap(), both.unwrap());
+    assert!(
+        one > 0.0,
+        "the eikonal term of a fresh SDF is positive: {one}"
+    );
+    assert_eq!(sil, none_sil);
+    assert!(
+        (both - (one + other)).abs() <= 1e-5 * both,
+        "{both} vs {one} + {other}"
+    );
+    assert!((total - (sil + both)).abs() <= 1e-5 * total, "{total}");
 }

@@ -54,23 +54,26 @@ pub fn save(trainer: &Trainer, dir: &Path) -> Result<()> {
         terms: trainer.terms.clone(),
     };
     let text = serde_json::to_string_pretty(&state).expect("state serializes");
+    // The checkpoint `latest.json` named until now: the one kept besides the new one.
+    let previous = latest(dir).ok().flatten().map(|s| s.dir);
     write_atomic(&dir.join(LATEST), |w| {
         std::io::Write::write_all(w, text.as_bytes())
     })?;
-    // Keep this checkpoint and the one before it.
-    let mut old: Vec<PathBuf> = std::fs::read_dir(dir)
+    // Keep this checkpoint and the previous complete one; anything else (older ones, and the
+    // half-written directory a kill can leave) goes.
+    let stale: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| Error::io(dir, e))?
         .flatten()
         .map(|e| e.path())
         .filter(|p| {
             p.is_dir()
-                && p.file_name()
-                    .is_some_and(|n| n.to_string_lossy().starts_with("step-"))
+                && p.file_name().is_some_and(|n| {
+                    let n = n.to_string_lossy();
+                    n.starts_with("step-") && n != name && Some(n.as_ref()) != previous.as_deref()
+                })
         })
         .collect();
-    old.sort();
-    old.retain(|p| p.file_name().is_some_and(|n| n.to_string_lossy() != name));
-    for p in old.iter().rev().skip(1) {
+    for p in stale {
         let _ = std::fs::remove_dir_all(p);
     }
     Ok(())

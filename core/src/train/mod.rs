@@ -42,7 +42,9 @@ pub struct Components {
     pub ray_sampler: Box<dyn RaySampler>,
     pub anchor_sampler: Box<dyn AnchorSampler>,
     pub aggregator: Box<dyn Aggregator>,
-    pub regularizer: Option<Box<dyn Regularizer>>,
+    /// The loss terms added to the silhouette loss (the loss is their sum); none is the
+    /// silhouette loss alone.
+    pub regularizers: Vec<Box<dyn Regularizer>>,
 }
 
 /// Optimization settings.
@@ -214,7 +216,8 @@ pub fn prepare_step(
     }
 }
 
-/// The loss of one prepared step: `(total, silhouette, regularizer)`.
+/// The loss of one prepared step: `(total, silhouette, sum of the regularizers)`; the last is
+/// `None` when there are none or none contributes this step.
 pub fn probe_loss(
     model: &dyn Field,
     prepared: &PreparedStep,
@@ -252,14 +255,20 @@ pub fn probe_loss(
         .powi_scalar(2)
         .mean()
         .mul_scalar(b.views_per_object as f32);
-    let reg = comps.regularizer.as_ref().and_then(|r| {
+    let reg = if comps.regularizers.is_empty() {
+        None
+    } else {
         let sampled = Tensor::<3>::from_data(
             TensorData::new(b.sampled.clone(), [nb, b.sampled_per_object, 3]),
             device,
         );
         let field = FieldQuery { model, latent };
-        r.loss(&field, &sampled)
-    });
+        comps
+            .regularizers
+            .iter()
+            .filter_map(|r| r.loss(&field, &sampled))
+            .reduce(|a, b| a + b)
+    };
     let total = match &reg {
         Some(r) => sil.clone() + r.clone(),
         None => sil.clone(),

@@ -2,7 +2,9 @@
 //!
 //! Only what datasets need: little-endian/byte dtypes, C order, format versions 1–3. `.npz` files
 //! are zip archives of `.npy` members named `KEY.npy`; we write them deflate-compressed (as
-//! `np.savez_compressed`) and read stored or deflated members.
+//! `np.savez_compressed`) and read stored or deflated members. Hand-written over `zip` rather than
+//! with `ndarray-npy`/`npyz`: those would bring ndarray or read a member whole by its claimed
+//! size, where this reader checks every size against the bytes actually there and streams.
 
 use std::collections::BTreeMap;
 use std::io::{Read, Write};

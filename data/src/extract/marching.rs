@@ -1,5 +1,7 @@
 //! Marching cubes on a dense scalar grid, built procedurally (no case table) so that the output is
-//! a closed, consistently oriented 2-manifold by construction.
+//! a closed, consistently oriented 2-manifold by construction. Hand-written rather than a crate
+//! (`mcubes`, `isosurface`): those use the classic table, whose ambiguous faces crack (below), and
+//! none resolves faces by the asymptotic decider.
 //!
 //! # Why not the classic 256-case table
 //!

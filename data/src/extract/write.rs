@@ -1,4 +1,6 @@
-//! Mesh writers: binary little-endian `.ply`, and `.obj` through [`TriMesh::write_obj`].
+//! Mesh writers: binary little-endian `.ply`, and `.obj` through [`TriMesh::write_obj`]. The PLY
+//! writer is thirty lines for one fixed layout (float xyz, int triangles); `ply-rs` would add a
+//! generic property model to write exactly that.
 
 use std::io::Write;
 use std::path::Path;

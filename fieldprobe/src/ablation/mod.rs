@@ -49,6 +49,7 @@ use tracing::{error, info};
 
 use crate::experiment::{DataConfig, Experiment};
 use crate::loader::{CategoryData, ensure_dataset, load};
+use crate::lock::RunLock;
 use crate::metrics::Metrics;
 use crate::outputs::Outputs;
 use crate::run::{FileOutcome, RunOptions, prepare_dir, run_one};
@@ -57,7 +58,7 @@ use crate::variants::{AblationFile, Variant};
 /// Runs an ablation file (one with `[[variants]]`): every entry and seed, or only those that
 /// `opts.variant` and `opts.seed` name. `outputs` writes the comparison after each entry.
 pub fn run(path: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result<FileOutcome> {
-    let file = AblationFile::load(path)?;
+    let file = AblationFile::load_with(path, &opts.overrides)?;
     let args = opts;
     let root = args
         .out
@@ -149,6 +150,7 @@ pub fn run(path: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result<File
                 let resume = checkpoint::latest(&dir.join("checkpoints"))?.is_some();
                 (|| {
                     let data = cache.get(exp)?;
+                    let _lock = RunLock::acquire(dir)?;
                     prepare_dir(exp, dir)?;
                     let o = run_one(exp, path, data, dir, resume, outputs)?;
                     info!(
