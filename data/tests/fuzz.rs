@@ -8,14 +8,13 @@
 //! `--ignored` tests run thousands (`cargo test --release --workspace --test fuzz -- --ignored`).
 //! A failing case prints its seed and index, so it can be replayed.
 
-#![allow(unsafe_code)]
+mod common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
+use common::peak_of;
 use fieldprobe_data::Category;
 use fieldprobe_data::dataset::npy::{NpyArray, read_npz, read_npz_key, write_npz};
 use fieldprobe_data::dataset::{ObjectRecord, ObjectSet, Split, dvr};
@@ -25,31 +24,6 @@ use fieldprobe_data::render::RenderOptions;
 use fieldprobe_data::voxelize::Voxelizer;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-struct Counting;
-
-static LIVE: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
-
-// SAFETY: forwards every call to the system allocator unchanged; it only counts bytes.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let p = unsafe { System.alloc(layout) };
-        if !p.is_null() {
-            let now = LIVE.fetch_add(layout.size(), Ordering::Relaxed) + layout.size();
-            PEAK.fetch_max(now, Ordering::Relaxed);
-        }
-        p
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) };
-        LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: Counting = Counting;
 
 /// The allocator's counters are process-wide: one case at a time.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
@@ -62,10 +36,7 @@ fn check<T, E: std::fmt::Display>(
     bound: usize,
     read: impl FnOnce() -> Result<T, E>,
 ) -> bool {
-    let before = LIVE.load(Ordering::Relaxed);
-    PEAK.store(before, Ordering::Relaxed);
-    let out = catch_unwind(AssertUnwindSafe(read));
-    let peak = PEAK.load(Ordering::Relaxed).saturating_sub(before);
+    let (out, peak) = peak_of(|| catch_unwind(AssertUnwindSafe(read)));
     let ok = match out {
         Ok(Ok(_)) => true,
         Ok(Err(e)) => {

@@ -1,6 +1,6 @@
 //! The FieldProbe command line. The pipeline (experiment files, data, training, evaluation,
 //! run directories, ablations) is the `fieldprobe` library; this crate parses commands, shows
-//! progress, and renders reports and pictures (`report`, `gallery`, `plot`, `pictures`,
+//! progress, and renders reports and pictures (`report`, `gallery`, `charts`, `plot`, `pictures`,
 //! `ablation`, `contact_sheet`) through the library's `Outputs` and `progress` hooks.
 //!
 //! ```text
@@ -18,6 +18,7 @@
 
 pub mod ablation;
 pub mod bench;
+pub mod charts;
 pub mod check_dataset;
 pub mod contact_sheet;
 pub mod eval;

@@ -106,8 +106,9 @@ pub fn render(exp: &Experiment, m: &Metrics, gallery: &[GalleryRow], curves: boo
         let _ = writeln!(s, "\n## Training curve\n");
         let _ = writeln!(
             s,
-            "Mean loss per logged interval (log scale) against the step: 1 the total, 2 the \
-             silhouette term, 3 the regularizers (when there are any).\n"
+            "Mean loss per logged interval (log scale) against the step: the total, the \
+             silhouette term and the regularizers (when there are any); the numbers are in \
+             `history.csv`, the chart also as `training_curves.svg`.\n"
         );
         let _ = writeln!(s, "![training curve](training_curves.png)");
     }

@@ -15,7 +15,7 @@ use fieldprobe::run::RunOptions;
 use fieldprobe::variants::AblationFile;
 
 use crate::ablation::{SamplesInfo, write_report, write_samples};
-use crate::plot;
+use crate::charts;
 
 /// Arguments of a run.
 #[derive(clap::Args, Debug)]
@@ -114,8 +114,8 @@ pub fn write_run_report(run: &FinishedRun<'_>) -> Result<String> {
     )?;
     let curves = !run.training.history.is_empty();
     if curves {
-        let chart = plot::loss_terms_chart(&run.training.history, &run.training.terms);
-        plot::write_png(&run.dir.join("training_curves.png"), &chart)?;
+        charts::loss_terms(&run.training.history, &run.training.terms)
+            .write(&run.dir.join("training_curves.png"))?;
     }
     let report = crate::report::render(run.exp, run.metrics, &gallery, curves);
     fieldprobe::data::dataset::write_atomic(&run.dir.join("report.md"), |w| {

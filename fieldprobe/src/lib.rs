@@ -15,7 +15,7 @@
 //! drives:
 //!
 //! * [`experiment`] — the TOML experiment file; [`variants`] — ablation files (`[[variants]]`);
-//!   [`overrides`] — `--set key=value` on top of either.
+//!   [`overrides`] — `--set key=value` on top of either; [`layers`] — how those layers merge.
 //! * [`make`] — datasets in the published layout; [`loader`] — an experiment's objects;
 //!   [`lock`] — one process per run directory.
 //! * [`launch`] — an experiment file from start to end ([`run_file`]); [`run`] — train + evaluate
@@ -42,6 +42,7 @@ pub mod evaluate;
 pub mod experiment;
 pub mod history;
 pub mod launch;
+pub mod layers;
 pub mod loader;
 pub mod lock;
 pub mod make;

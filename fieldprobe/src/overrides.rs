@@ -4,7 +4,7 @@
 //! Each `key=value` is a dotted TOML key and a TOML value (`train.steps=10`,
 //! `probe.ray_sampler.type="normal"`, `data.categories=["chair"]`); a value that is not valid
 //! TOML is taken as a string (`backend=flex`). The overrides are merged into the file with the
-//! rules of ablation variants ([`crate::variants::merge`]: tables key by key, a new `type`
+//! rules of ablation variants ([`crate::layers::merge`]: tables key by key, a new `type`
 //! replaces the component, an empty table removes it), as the last layer: over the base of a
 //! plain file, over every entry of an ablation. The resolved `config.toml` of a run records the
 //! result, so a run stays reproducible from its directory alone.
@@ -12,7 +12,7 @@
 use anyhow::{Result, bail};
 use toml::{Table, Value};
 
-use crate::variants::merge;
+use crate::layers::merge;
 
 /// Parsed `--set` arguments: a TOML table to merge last.
 #[derive(Clone, Debug, Default, PartialEq)]

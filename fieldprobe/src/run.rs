@@ -1,8 +1,9 @@
 //! One run: train, evaluate, and write the run directory (`config.toml`, `input.json`,
 //! `checkpoints/`, `history.csv` (as training goes), `metrics.json`, `objects.csv` (every
 //! prediction's scores), `meshes/` (the test meshes, unless `eval.save_meshes = false`), and
-//! whatever the [`Outputs`] add: the CLI's `report.md` and pictures). [`crate::launch::run_file`] runs a file through [`run_one`]; an ablation runs it
-//! per entry and seed.
+//! whatever the [`Outputs`] add: the CLI's `report.md` and pictures).
+//! [`crate::launch::run_file`] runs a file through [`run_one`]; an ablation runs it per entry and
+//! seed.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

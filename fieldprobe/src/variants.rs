@@ -1,7 +1,5 @@
 //! Ablation files: an experiment (the *base*) plus `[[variants]]`, each overriding a few keys of
-//! the base. Ablations are base plus deltas, never copied files. The merge is hand-written (fifty
-//! lines over `toml::Table`) because its rules are the project's own (a new `type` or an empty table
-//! replaces); generic layered-config crates (`figment`, `config`) merge tables key by key only.
+//! the base. Ablations are base plus deltas, never copied files.
 //!
 //! ```toml
 //! name = "ablation-regularizer"
@@ -26,7 +24,7 @@
 //!
 //! A variant is resolved by deep-merging its keys (all but `name` and `paper_iou`) into the base's
 //! TOML, then reading the merged document as an [`Experiment`] (so unknown keys are errors, named
-//! with the file and the variant). Merge rules ([`merge`]):
+//! with the file and the variant). Merge rules ([`crate::layers::merge`]):
 //!
 //! * a table merges into the base's table key by key, recursively;
 //! * **a table whose `type` differs from the base table's `type` replaces it entirely** (a
@@ -48,6 +46,7 @@ use anyhow::{Context, Result, anyhow, bail};
 use toml::{Table, Value};
 
 use crate::experiment::{Experiment, renamed_key_hint};
+use crate::layers::merge;
 use crate::overrides::Overrides;
 
 /// Top-level keys of an ablation file that are not experiment keys.
@@ -278,26 +277,6 @@ pub fn slug(name: &str) -> String {
     s.trim_matches('-').to_string()
 }
 
-/// Deep-merges `over` into `base` (see the module docs for the rules).
-pub fn merge(base: &mut Table, over: &Table) {
-    for (k, v) in over {
-        match (base.get_mut(k), v) {
-            (Some(Value::Table(b)), Value::Table(o)) if !o.is_empty() && !switches_type(b, o) => {
-                merge(b, o)
-            }
-            _ => {
-                base.insert(k.clone(), v.clone());
-            }
-        }
-    }
-}
-
-/// Whether `over` names a component `type` other than `base`'s.
-fn switches_type(base: &Table, over: &Table) -> bool {
-    over.get("type")
-        .is_some_and(|t| base.get("type") != Some(t))
-}
-
 /// The entry `over` of an ablation file: the base with the entry's keys merged in, then the
 /// command line's `overrides`; `(name, paper_iou)` of the entry.
 fn resolve(
@@ -433,24 +412,6 @@ lr = 1e-3
 
     fn toml_of<T: serde::Serialize + ?Sized>(v: &T) -> String {
         serde_json::to_string(v).unwrap()
-    }
-
-    #[test]
-    fn tables_merge_key_by_key_and_a_new_type_or_an_empty_table_replaces() {
-        let mut base: Table = toml::from_str(
-            "a = 1\n[t]\nx = 1\ny = { p = 1, q = 2 }\n[c]\ntype = \"u\"\nk = 1\n[d]\ntype = \"u\"\nk = 1\nj = 2\n[e.one]\nk = 1",
-        )
-        .unwrap();
-        let over: Table = toml::from_str(
-            "a = 2\nnew = [1, 2]\nt = { y = { q = 3 } }\nc = { type = \"v\", m = 5 }\nd = { type = \"u\", k = 7 }\ne = {}",
-        )
-        .unwrap();
-        merge(&mut base, &over);
-        let want: Table = toml::from_str(
-            "a = 2\nnew = [1, 2]\ne = {}\n[t]\nx = 1\ny = { p = 1, q = 3 }\n[c]\ntype = \"v\"\nm = 5\n[d]\ntype = \"u\"\nk = 7\nj = 2",
-        )
-        .unwrap();
-        assert_eq!(base, want);
     }
 
     #[test]

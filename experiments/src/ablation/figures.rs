@@ -10,6 +10,7 @@ use fieldprobe::probe::{AnchorSamplerConfig, RaySamplerConfig};
 use fieldprobe::train::step_rng;
 use fieldprobe::variants::{AblationFile, inline_of};
 
+use crate::charts::{self, LineChart, Series};
 use crate::plot;
 
 /// What `samples.png` shows, for the report.
@@ -30,17 +31,28 @@ pub const SAMPLE_VIEW: usize = 3;
 /// Zoom of the 64² silhouettes in `samples.png`.
 const SAMPLE_ZOOM: u32 = 4;
 
-/// The loss history of every finished entry (entry `i` in colour `i`, labelled `i + 1`), log y.
-pub fn training_curves(status: &[Status]) -> image::RgbImage {
-    let histories: Vec<(usize, &[(usize, f32)])> = status
+/// The loss history of every finished entry (entry `i` in colour `i`, labelled with its name),
+/// log y; an entry trained with several seeds shows its first seed's curve.
+pub fn training_curves(status: &[Status]) -> LineChart {
+    let series = status
         .iter()
         .enumerate()
         .filter_map(|(i, s)| match s {
-            Status::Finished(e) => Some((i, e.loss_history.as_slice())),
+            Status::Finished(e) => Some(Series {
+                label: e.variant.clone(),
+                points: charts::points(&e.loss_history),
+                color: plot::color(i).1,
+            }),
             _ => None,
         })
         .collect();
-    plot::loss_chart(&histories)
+    LineChart {
+        title: "Training loss per ablation entry".into(),
+        x_label: "training step".into(),
+        y_label: "loss, mean per logged interval".into(),
+        log_y: true,
+        series,
+    }
 }
 
 /// Draws, for the first training object of the base's first category and view [`SAMPLE_VIEW`],

@@ -3,7 +3,7 @@
 //! ```text
 //! runs/<name>/
 //!   report.md              the comparison table, ordering vs the paper, pictures
-//!   training_curves.png    the loss history of every finished entry
+//!   training_curves.png    the loss history of every finished entry (and .svg)
 //!   samples.png            rays and anchors of the base's samplers vs a comparison sampler
 //! ```
 
@@ -22,8 +22,6 @@ use fieldprobe::ablation::entry::Status;
 use fieldprobe::data::dataset::write_atomic;
 use fieldprobe::variants::AblationFile;
 
-use crate::plot;
-
 /// Writes `training_curves.png` and `report.md` (last) for the current state; returns the
 /// report's text.
 pub fn write_report(
@@ -32,7 +30,7 @@ pub fn write_report(
     status: &[Status],
     samples: &SamplesInfo,
 ) -> Result<String> {
-    plot::write_png(&root.join("training_curves.png"), &training_curves(status))?;
+    training_curves(status).write(&root.join("training_curves.png"))?;
     let report = render_report(file, status, samples);
     write_atomic(&root.join("report.md"), |w| {
         std::io::Write::write_all(w, report.as_bytes())

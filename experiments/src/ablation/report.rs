@@ -228,7 +228,7 @@ pub fn render_report(file: &AblationFile, status: &[Status], samples: &SamplesIn
         s,
         "Mean training loss per logged interval (silhouette MSE plus the regularizer's term, so \
          rows with different regularizers differ in what the loss includes) against the step, log \
-         scale. Legend (the numbered boxes in the picture):\n"
+         scale (also as `training_curves.svg`). Entries in the chart's legend, by colour:\n"
     );
     for (i, (v, st)) in file.entries.iter().zip(status).enumerate() {
         let (cname, c) = plot::color(i);

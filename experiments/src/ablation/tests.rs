@@ -39,13 +39,15 @@ fn the_report_has_every_row_and_the_curves_every_finished_entry() {
         .unwrap()
         .to_rgb8();
     assert_eq!(curves.dimensions(), (800, 480));
-    for i in [0, 1] {
-        let c = plot::color(i).1;
-        assert!(
-            curves.pixels().filter(|p| **p == c).count() > 100,
-            "series {i}"
-        );
-    }
+    // Both finished entries have the same history, so the second curve covers the first; each
+    // still has its legend swatch (22 × 3 pixels), and the top curve its line.
+    let pixels = |i: usize| curves.pixels().filter(|p| **p == plot::color(i).1).count();
+    assert!(pixels(0) >= 60, "series 0: {}", pixels(0));
+    assert!(pixels(1) > 200, "series 1: {}", pixels(1));
+    assert!(
+        dir.path().join("training_curves.svg").is_file(),
+        "the SVG beside the PNG"
+    );
     assert_eq!(
         curves.pixels().filter(|p| **p == plot::color(2).1).count(),
         0,
