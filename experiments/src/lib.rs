@@ -46,13 +46,14 @@ use fieldprobe as _;
     version,
     about = "FieldProbe: implicit surfaces from silhouettes"
 )]
-#[command(args_conflicts_with_subcommands = true)]
+#[command(args_conflicts_with_subcommands = true, arg_required_else_help = true)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
     #[command(flatten)]
     run: Option<run::RunArgs>,
     /// More log lines: -v debug, -vv trace (FieldProbe's crates; burn and wgpu stay at warn).
+    /// With a subcommand, put it after the subcommand's name (`experiments list -q`).
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     verbose: u8,
     /// Warnings and errors only, and no progress bars.

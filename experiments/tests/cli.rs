@@ -332,6 +332,25 @@ fn experiment_files_with_bad_keys_or_components_are_named() {
     );
 }
 
+/// An empty invocation shows the help (to stderr, as clap does for a missing argument), under
+/// either binary name; flags work before a file and after a subcommand.
+#[test]
+fn an_empty_invocation_prints_help_and_flags_parse() {
+    let out = experiments(&[]);
+    let text = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        text.contains("Usage:") && text.contains("make-dataset") && text.contains("--verbose"),
+        "{text}"
+    );
+    let quiet = ok(&experiments(&["list", "-q"]));
+    assert!(quiet.contains("[regularizers.<name>]"), "{quiet}");
+    let out = Command::new(env!("CARGO_BIN_EXE_fieldprobe"))
+        .arg("--help")
+        .output()
+        .unwrap();
+    assert!(ok(&out).contains("Usage: fieldprobe"));
+}
+
 #[test]
 fn list_shows_every_component_with_an_example() {
     let out = ok(&experiments(&["list"]));
