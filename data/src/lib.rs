@@ -6,7 +6,8 @@
 //! * [`mesh`], [`mesh_files`], [`image`], [`render`] — triangle meshes (`.obj`, `.off`, `.ply`,
 //!   `.stl` in; `.obj`, `.ply` out), silhouettes, the CPU rasterizer that makes Kato-style views.
 //! * [`grid`], [`voxelize`], [`inside`], [`hull`] — NMR's voxel placement and voxelization, exact
-//!   inside tests, the visual hull.
+//!   inside tests, the visual hull; [`winding`] — winding numbers at many points (a tree of
+//!   dipoles) for meshes that are not closed.
 //! * [`procedural`], [`category`], [`dataset`] — seeded shapes in the paper's six categories and
 //!   the published dataset layouts (Kato's npz, DVR's folders).
 //! * [`extract`] — meshes from any scalar field (MISE + marching cubes).
@@ -29,6 +30,7 @@ pub mod mesh_files;
 pub mod procedural;
 pub mod render;
 pub mod voxelize;
+pub mod winding;
 
 pub use category::Category;
 pub use error::{Error, Result};

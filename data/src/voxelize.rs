@@ -18,12 +18,13 @@
 
 use std::collections::VecDeque;
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::grid::{GridFrame, VoxelGrid};
 use super::mesh::TriMesh;
+use super::winding::solid_angle;
 
 /// Which voxelization made a dataset's ground truth (recorded in its `dataset.json`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -184,7 +185,8 @@ pub fn fill_interior(shell: VoxelGrid) -> VoxelGrid {
 }
 
 /// Generalized winding number of `mesh` at `p`: 1 inside a closed, outward- or inward-consistently
-/// oriented mesh (sign follows orientation), 0 outside, fractional near holes.
+/// oriented mesh (sign follows orientation), 0 outside, fractional near holes. One solid angle
+/// per face: the reference of [`crate::winding::FastWinding`], which answers many points.
 pub fn winding_number(mesh: &TriMesh, p: Vec3) -> f64 {
     let p = p.as_dvec3();
     let mut total = 0.0;
@@ -193,14 +195,6 @@ pub fn winding_number(mesh: &TriMesh, p: Vec3) -> f64 {
         total += solid_angle(a, b, c);
     }
     total / (4.0 * std::f64::consts::PI)
-}
-
-/// Signed solid angle of triangle `(a, b, c)` seen from the origin (Van Oosterom–Strackee).
-fn solid_angle(a: DVec3, b: DVec3, c: DVec3) -> f64 {
-    let (la, lb, lc) = (a.length(), b.length(), c.length());
-    let num = a.dot(b.cross(c));
-    let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
-    2.0 * num.atan2(den)
 }
 
 /// Voxels whose centre has |winding number| ≥ ½ (orientation-agnostic).

@@ -27,7 +27,7 @@ use rand::Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::data::mesh::TriMesh;
-use crate::data::voxelize::winding_number;
+use crate::data::winding::FastWinding;
 
 /// Points on a surface with their unit normals (orientation is irrelevant to every metric here).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -72,9 +72,12 @@ pub fn sample_surface(mesh: &TriMesh, n: usize, rng: &mut impl Rng) -> SurfaceSa
 /// inside any part it is at least 1. So a sample is kept when `min |w(p ± ε n)| < ½` (ε = 10⁻⁴,
 /// far below any feature of a unit-size object; at `p` itself `w` is ill-defined, as `p` lies on
 /// a face). Walls inside another part are dropped; where two parts share a coplanar face, both
-/// copies are kept (that patch counts twice). Assumes consistently oriented parts.
+/// copies are kept (that patch counts twice). Assumes consistently oriented parts. The winding
+/// number comes from [`FastWinding`] (a tree of dipoles, tested against the exact sum), so a
+/// 100k-face ShapeNet mesh takes seconds, not the hours of one solid angle per face and point.
 pub fn outer_surface(mesh: &TriMesh, sample: SurfaceSample) -> SurfaceSample {
     const EPS: f32 = 1e-4;
+    let winding = FastWinding::new(mesh);
     let keep: Vec<bool> = {
         use rayon::prelude::*;
         sample
@@ -83,7 +86,7 @@ pub fn outer_surface(mesh: &TriMesh, sample: SurfaceSample) -> SurfaceSample {
             .zip(&sample.normals)
             .map(|(&p, &n)| {
                 // Short-circuits: with outward normals the first side is usually outside.
-                let outside = |q: Vec3| winding_number(mesh, q).abs() < 0.5;
+                let outside = |q: Vec3| winding.winding(q).abs() < 0.5;
                 outside(p + n * EPS) || outside(p - n * EPS)
             })
             .collect()
