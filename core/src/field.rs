@@ -30,6 +30,8 @@ use burn::prelude::*;
 use burn::tensor::Gradients;
 use burn::tensor::activation::sigmoid;
 
+use crate::weights::{self, Import, ImportReport};
+
 /// A field φ(z, p) ∈ (0, 1): the occupancy probability of point `p` given latent `z`.
 pub trait Field: Send + Debug {
     /// Latent codes `[B, Z]` of input images `[B, 4, S, S]` (RGBA in `[0, 1]`); `None` for a
@@ -76,6 +78,11 @@ pub trait FieldModel: Field {
     fn save_weights(&self, path: &Path) -> Result<(), String>;
     /// Replaces the weights by those at `path`; fails if they do not fit this model's shapes.
     fn load_weights(&mut self, path: &Path) -> Result<(), String>;
+    /// Writes the weights to `path` as safetensors, tensors named by module path, `metadata`
+    /// in the header ([`crate::weights::export`]).
+    fn export_safetensors(&self, path: &Path, metadata: &[(String, String)]) -> Result<(), String>;
+    /// Reads weights from a safetensors file by name ([`crate::weights::import`]).
+    fn import_safetensors(&mut self, path: &Path, spec: &Import) -> Result<ImportReport, String>;
     /// Number of scalar parameters.
     fn parameters(&self) -> usize;
 }
@@ -106,6 +113,14 @@ impl<M: Module + Field + 'static> FieldModel for M {
         Ok(())
     }
 
+    fn export_safetensors(&self, path: &Path, metadata: &[(String, String)]) -> Result<(), String> {
+        weights::export(self, path, metadata)
+    }
+
+    fn import_safetensors(&mut self, path: &Path, spec: &Import) -> Result<ImportReport, String> {
+        weights::import(self, path, spec)
+    }
+
     fn parameters(&self) -> usize {
         self.num_params()
     }
@@ -129,4 +144,12 @@ pub trait FieldModelConfig: Send + Sync + Debug {
     /// Builds the model on `device` (an autodiff device to train), weights drawn from the
     /// device's RNG.
     fn init(&self, device: &Device) -> Box<dyn FieldModel>;
+
+    /// Loads the weights this configuration asks a fresh model to start from (an ImageNet
+    /// ResNet for the encoder, say) into `model`, built by [`init`](Self::init). Called once
+    /// when training starts from step 0, never on `--resume` or for evaluation (a checkpoint
+    /// holds the weights then), so the file is needed only to start. Default: none.
+    fn load_pretrained(&self, _model: &mut dyn FieldModel) -> Result<(), String> {
+        Ok(())
+    }
 }

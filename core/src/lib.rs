@@ -9,7 +9,8 @@
 //! * [`object`] — an object's input images and supervision, read by training and evaluation.
 //! * [`probe`] — samplers, ray–anchor assignment, aggregation, training batches.
 //! * [`regularize`] — the regularizer trait; [`registry`] — pluggable components.
-//! * [`train`] — the training loop and checkpoints; [`eval`] — 3D IoU in the NMR protocol.
+//! * [`train`] — the training loop and checkpoints; [`eval`] — 3D IoU in the NMR protocol;
+//!   [`weights`] — safetensors export and import by tensor name.
 //!
 //! Conventions are fixed by `DESIGN.md` §4 and pinned by tests against hand-worked numbers and an
 //! independently computed golden file.
@@ -21,6 +22,7 @@ pub mod probe;
 pub mod registry;
 pub mod regularize;
 pub mod train;
+pub mod weights;
 
 // Re-exported for `register_component!` in plugin crates.
 #[doc(hidden)]

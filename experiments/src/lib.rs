@@ -12,6 +12,7 @@
 //! experiments check-dataset --data DIR             do silhouettes, cameras and voxels agree?
 //! experiments eval --run DIR [--data DIR]          recompute a run's metrics and pictures
 //! experiments reconstruct --run DIR --image IMG.png --out mesh.obj   a mesh from a picture
+//! experiments export --run DIR --out model.safetensors                the weights as safetensors
 //! ```
 //!
 //! Logs go through `tracing` (see [`logging`]; `-v`, `-q` or `FIELDPROBE_LOG=debug`).
@@ -22,6 +23,7 @@ pub mod charts;
 pub mod check_dataset;
 pub mod contact_sheet;
 pub mod eval;
+pub mod export;
 pub mod gallery;
 pub mod list;
 pub mod logging;
@@ -80,6 +82,9 @@ enum Command {
     Eval(eval::Args),
     /// Reconstruct a mesh (and a turntable PNG) from a picture with a trained run's model.
     Reconstruct(reconstruct::Args),
+    /// Write a run's latest weights as safetensors (tensor names are module paths; the header
+    /// holds the run's [model] table). `train.init_from` reads such a file back.
+    Export(export::Args),
 }
 
 /// Runs the command line on the process arguments. Call it first thing in `main`.
@@ -107,6 +112,7 @@ pub fn cli_main() -> anyhow::Result<()> {
         (Some(Command::CheckDataset(args)), _) => check_dataset::run(args),
         (Some(Command::Eval(args)), _) => eval::run(args),
         (Some(Command::Reconstruct(args)), _) => reconstruct::run(args),
+        (Some(Command::Export(args)), _) => export::run(args),
         (None, None) => {
             use clap::CommandFactory;
             Cli::command().print_help()?;

@@ -586,6 +586,46 @@ fn a_run_reports_meshes_and_pictures_and_its_inputs_reconstruct() {
         "{m2}"
     );
 
+    // `export` writes the weights as safetensors with the run's [model] table in the header; a
+    // run started from them (`train.init_from`) trains on, and a model of another shape refuses
+    // them, naming the file.
+    let weights = dir.path().join("exported/model.safetensors");
+    let w = weights.to_str().unwrap();
+    let log = ok(&experiments(&["export", "--run", r, "--out", w]));
+    assert!(
+        log.contains("parameters") && log.contains("step 4"),
+        "{log}"
+    );
+    let bytes = String::from_utf8_lossy(&std::fs::read(&weights).unwrap()).into_owned();
+    assert!(
+        bytes.contains("fieldprobe.model") && bytes.contains("single_view"),
+        "the header names the model"
+    );
+    let init = format!("train.init_from=\"{w}\"");
+    let tuned = dir.path().join("tuned");
+    ok(&experiments(&[
+        file.to_str().unwrap(),
+        "--out",
+        tuned.to_str().unwrap(),
+        "--set",
+        &init,
+        "--set",
+        "train.steps=1",
+    ]));
+    let e = fails(&experiments(&[
+        file.to_str().unwrap(),
+        "--out",
+        dir.path().join("other").to_str().unwrap(),
+        "--set",
+        &init,
+        "--set",
+        "model.latent=4",
+    ]));
+    assert!(
+        e.contains("init_from") && e.contains("model.safetensors") && e.contains("mismatch"),
+        "{e}"
+    );
+
     // Clear errors.
     let e = fails(&experiments(&[
         "reconstruct",

@@ -11,9 +11,10 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use fieldprobe_backends::Selected;
 use fieldprobe_core::data::dataset::write_atomic;
-use fieldprobe_core::field::Field;
+use fieldprobe_core::field::{Field, FieldModel};
 use fieldprobe_core::object::ObjectViews;
 use fieldprobe_core::train::{Components, StepStats, TrainRun, Trainer, checkpoint};
+use fieldprobe_core::weights::Import;
 use serde::{Deserialize, Serialize};
 use tracing::{info, warn};
 
@@ -238,6 +239,26 @@ pub fn evaluate_run(
     })
 }
 
+/// The weights a fresh run starts from, over the random ones: the representation's own
+/// (`model.encoder.pretrained`), then every tensor from `train.init_from`.
+pub fn start_weights(exp: &Experiment, model: &mut dyn FieldModel) -> Result<()> {
+    exp.model
+        .load_pretrained(model)
+        .map_err(anyhow::Error::msg)?;
+    if let Some(path) = &exp.train.init_from {
+        let report = model
+            .import_safetensors(path, &Import::default())
+            .map_err(|e| anyhow::anyhow!("train.init_from: {e}"))?;
+        info!(
+            "started from {} ({} tensors; {} in the file not used)",
+            path.display(),
+            report.loaded,
+            report.unused.len()
+        );
+    }
+    Ok(())
+}
+
 /// Trains (or resumes) to `exp.train.steps`, checkpointing atomically; returns the trainer and the
 /// seconds spent in this process.
 fn train(
@@ -263,7 +284,9 @@ fn train(
         info!("resumed from {} at step {}", ckpt.display(), t.step);
         t
     } else {
-        Trainer::new(exp.model.as_ref(), device, exp.seed)
+        let mut t = Trainer::new(exp.model.as_ref(), device, exp.seed);
+        start_weights(exp, t.model.as_mut())?;
+        t
     };
     let objects = pool(data);
     let run = TrainRun {

@@ -60,6 +60,34 @@ impl RunDir {
         )?)
     }
 
+    /// Writes the latest checkpoint's weights to `out` as safetensors (tensor names are module
+    /// paths, `decoder.layers.0.weight`); the header holds the run's `[model]` table
+    /// (`fieldprobe.model`) and step (`fieldprobe.step`), so the file says what it fits. A run
+    /// with the same `[model]` and `train.init_from = "<out>"` starts from it. Returns the number
+    /// of scalar parameters written.
+    pub fn export_safetensors(&self, out: &Path) -> Result<usize> {
+        #[derive(serde::Serialize)]
+        struct ModelTable<'a> {
+            model: &'a dyn fieldprobe_core::field::FieldModelConfig,
+        }
+        if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(parent)
+                .with_context(|| format!("cannot create {}", parent.display()))?;
+        }
+        let model = self.model(&Device::flex())?;
+        let table = toml::to_string(&ModelTable {
+            model: self.exp.model.as_ref(),
+        })?;
+        let metadata = [
+            ("fieldprobe.model".to_string(), table),
+            ("fieldprobe.step".to_string(), self.state.step.to_string()),
+        ];
+        model
+            .export_safetensors(out, &metadata)
+            .map_err(|e| anyhow!(e))?;
+        Ok(model.parameters())
+    }
+
     /// The side of the images the model was trained on (`input.json`; runs made before it was
     /// written used NMR's 64).
     pub fn input_size(&self) -> Result<usize> {

@@ -16,7 +16,7 @@ pub mod per_object;
 pub mod sdf;
 pub mod single_view;
 
-pub use blocks::{Decoder, DecoderConfig, Encoder, EncoderConfig};
+pub use blocks::{Decoder, DecoderConfig, Encoder, EncoderConfig, Stem};
 pub use per_object::{PerObject, PerObjectConfig};
 pub use sdf::{Sdf, SdfConfig};
 pub use single_view::{SingleView, SingleViewConfig};

@@ -124,6 +124,13 @@ impl FieldModelConfig for SdfConfig {
     fn init(&self, device: &Device) -> Box<dyn FieldModel> {
         Box::new(self.build(device))
     }
+
+    fn load_pretrained(&self, model: &mut dyn FieldModel) -> Result<(), String> {
+        if self.latent == 0 {
+            return Ok(());
+        }
+        self.encoder.load_pretrained("encoder", model)
+    }
 }
 
 fieldprobe_core::register_component!(

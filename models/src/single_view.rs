@@ -56,6 +56,10 @@ impl FieldModelConfig for SingleViewConfig {
             decoder: self.decoder.init(self.latent, device),
         })
     }
+
+    fn load_pretrained(&self, model: &mut dyn FieldModel) -> Result<(), String> {
+        self.encoder.load_pretrained("encoder", model)
+    }
 }
 
 fieldprobe_core::register_component!(

@@ -67,6 +67,7 @@ fn model() -> SingleViewConfig {
             channels: vec![8, 16],
             blocks: vec![1, 1],
             in_channels: 4,
+            ..EncoderConfig::default()
         },
         decoder: DecoderConfig {
             hidden: vec![32, 32],
@@ -135,6 +136,7 @@ fn schedule(steps: usize, checkpoint_every: usize) -> TrainSpec {
         lr: 3e-3,
         lr_final: None,
         checkpoint_every,
+        init_from: None,
     }
 }
 

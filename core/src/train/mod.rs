@@ -67,6 +67,11 @@ pub struct TrainSpec {
     /// Write a checkpoint every this many steps (and at the end); 0 = only at the end.
     #[serde(default = "TrainSpec::default_checkpoint_every")]
     pub checkpoint_every: usize,
+    /// A `.safetensors` file with every tensor of the model (`experiments export` writes one)
+    /// that a fresh run starts from instead of random weights: fine-tuning, or another
+    /// dataset. Read once at step 0; `--resume` continues from the checkpoint instead.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub init_from: Option<std::path::PathBuf>,
 }
 
 impl TrainSpec {
@@ -366,6 +371,7 @@ mod tests {
             lr: 1e-3,
             lr_final: Some(1e-5),
             checkpoint_every: 0,
+            init_from: None,
         };
         assert!((spec.lr_at(0) - 1e-3).abs() < 1e-12);
         assert!((spec.lr_at(50) - (1e-5 + 0.5 * (1e-3 - 1e-5))).abs() < 1e-12);

@@ -152,6 +152,7 @@ mod tests {
                 channels: vec![4],
                 blocks: vec![1],
                 in_channels: 4,
+                ..EncoderConfig::default()
             },
             hidden: vec![8, 8],
         };

@@ -5,4 +5,4 @@ pub mod decoder;
 pub mod encoder;
 
 pub use decoder::{Decoder, DecoderConfig};
-pub use encoder::{Encoder, EncoderConfig};
+pub use encoder::{Encoder, EncoderConfig, Stem};

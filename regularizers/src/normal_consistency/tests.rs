@@ -480,6 +480,7 @@ fn tensor_loss_matches_the_reference_on_a_latent_conditioned_field_model() {
                 channels: vec![4],
                 blocks: vec![1],
                 in_channels: 4,
+                ..EncoderConfig::default()
             },
             decoder: DecoderConfig {
                 hidden: vec![32, 32],
