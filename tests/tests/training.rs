@@ -326,7 +326,7 @@ fn resumed_training_continues_exactly() {
 fn a_non_finite_loss_stops_training_with_a_clear_error() {
     let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
     let mut data = objects(1);
-    for s in &mut data[0].supervision.silhouettes {
+    for s in &mut std::sync::Arc::make_mut(&mut data[0].supervision).silhouettes {
         s.data.iter_mut().for_each(|v| *v = f32::NAN);
     }
     let dev = BackendChoice::Flex.select().unwrap().device;
