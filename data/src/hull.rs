@@ -42,7 +42,7 @@ impl CoverageTable {
         let mut sums = vec![0u32; (n + 1) * (n + 1)];
         for r in 0..n {
             for c in 0..n {
-                let v = (s.data[r * n + c] > 0.0) as u32;
+                let v = (s.get(r * n + c) > 0.0) as u32;
                 sums[(r + 1) * (n + 1) + c + 1] =
                     v + sums[r * (n + 1) + c + 1] + sums[(r + 1) * (n + 1) + c]
                         - sums[r * (n + 1) + c];
@@ -115,7 +115,7 @@ mod tests {
     #[test]
     fn coverage_table_counts_overlaps() {
         let mut s = Silhouette::empty(8);
-        s.data[3 * 8 + 5] = 0.1;
+        s.values_mut()[3 * 8 + 5] = 0.1;
         let t = CoverageTable::new(&s);
         assert!(t.any(4.6, 5.4, 2.6, 3.4));
         assert!(

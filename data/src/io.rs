@@ -32,10 +32,14 @@ pub fn write_atomic(
         .unwrap_or_default();
     let result = (|| {
         // Dropped (and so deleted) on every early return and on a panic in `write`.
-        let tmp = tempfile::Builder::new()
-            .prefix(&format!(".{name}."))
-            .suffix(".tmp")
-            .tempfile_in(parent)?;
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".tmp");
+        // tempfile makes owner-only (0600) files; a written result is an ordinary file, so it
+        // gets the mode `File::create` would give it (0666 less the umask).
+        #[cfg(unix)]
+        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+        let tmp = builder.tempfile_in(parent)?;
         let mut w = BufWriter::new(tmp.reopen()?);
         write(&mut w)?;
         w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
@@ -91,6 +95,19 @@ mod tests {
         assert!(r.is_err());
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "good");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    /// A result is readable like a file `File::create` makes (tempfile's own default is 0600).
+    #[cfg(unix)]
+    #[test]
+    fn a_written_file_has_the_mode_of_a_created_one() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let (atomic, plain) = (dir.path().join("a"), dir.path().join("b"));
+        write_atomic(&atomic, |w| w.write_all(b"x")).unwrap();
+        File::create(&plain).unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&atomic), mode(&plain));
     }
 
     /// A full disk (Linux's `/dev/full` answers every write with ENOSPC): the error names the

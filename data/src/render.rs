@@ -45,8 +45,8 @@ impl RenderedView {
     pub fn over_white(&self) -> impl Iterator<Item = Vec3> + '_ {
         self.color
             .iter()
-            .zip(&self.alpha.data)
-            .map(|(&c, &a)| c * a + Vec3::ONE * (1.0 - a))
+            .zip(self.alpha.values())
+            .map(|(&c, a)| c * a + Vec3::ONE * (1.0 - a))
     }
 }
 
@@ -77,7 +77,7 @@ pub fn render(mesh: &TriMesh, camera: &Camera, opts: &RenderOptions) -> Rendered
                     }
                 }
             }
-            alpha.data[row * size + col] = n as f32 * inv;
+            alpha.values_mut()[row * size + col] = n as f32 * inv;
             if n > 0 {
                 color[row * size + col] = sum / n as f32;
             }
@@ -190,22 +190,16 @@ mod tests {
         let h = 0.21; // edges fall mid-pixel, so edge pixels are partly covered
         let v = render(&quad(h), &cam, &RenderOptions::default());
         let side = 2.0 * h * cam.focal_px() / 2.0;
-        let area: f32 = v.alpha.data.iter().sum();
+        let area: f32 = v.alpha.values().sum();
         assert!(
             (area - side * side).abs() / (side * side) < 0.02,
             "{area} vs {}",
             side * side
         );
         // Centre fully covered, corners empty, edges partially covered.
-        assert_eq!(v.alpha.data[32 * 64 + 32], 1.0);
-        assert_eq!(v.alpha.data[0], 0.0);
-        let partial: Vec<f32> = v
-            .alpha
-            .data
-            .iter()
-            .copied()
-            .filter(|&a| a > 0.0 && a < 1.0)
-            .collect();
+        assert_eq!(v.alpha.get(32 * 64 + 32), 1.0);
+        assert_eq!(v.alpha.get(0), 0.0);
+        let partial: Vec<f32> = v.alpha.values().filter(|&a| a > 0.0 && a < 1.0).collect();
         assert!(!partial.is_empty(), "side {side}, area {area}");
     }
 

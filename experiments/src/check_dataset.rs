@@ -98,7 +98,7 @@ fn object_stats(set: &ObjectSet, i: usize, cameras: &[Camera]) -> ObjectStats {
     let sils = set.silhouettes(i);
     let coverage = sils
         .iter()
-        .map(|s| s.data.iter().sum::<f32>() / s.data.len() as f32)
+        .map(|s| s.values().sum::<f32>() / s.len() as f32)
         .sum::<f32>()
         / sils.len() as f32;
     let voxels = set.voxel_grid(i).map(|gt| {

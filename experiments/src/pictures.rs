@@ -56,7 +56,7 @@ pub fn silhouette_overlay(pred: &Silhouette, truth: &Silhouette, zoom: u32) -> R
     let s = pred.size as u32;
     RgbImage::from_fn(s * zoom, s * zoom, |x, y| {
         let i = ((y / zoom) * s + x / zoom) as usize;
-        match (pred.data[i] >= 0.5, truth.data[i] >= 0.5) {
+        match (pred.get(i) >= 0.5, truth.get(i) >= 0.5) {
             (true, true) => BOTH,
             (true, false) => PREDICTED_ONLY,
             (false, true) => TRUTH_ONLY,
@@ -110,10 +110,8 @@ mod tests {
 
     #[test]
     fn overlay_colours_each_case() {
-        let mut pred = Silhouette::empty(2);
-        let mut truth = Silhouette::empty(2);
-        pred.data = vec![1.0, 1.0, 0.0, 0.0];
-        truth.data = vec![1.0, 0.0, 1.0, 0.0];
+        let pred = Silhouette::from_values(2, vec![1.0, 1.0, 0.0, 0.0]);
+        let truth = Silhouette::from_values(2, vec![1.0, 0.0, 1.0, 0.0]);
         let img = silhouette_overlay(&pred, &truth, 3);
         assert_eq!(img.dimensions(), (6, 6));
         assert_eq!(*img.get_pixel(0, 0), BOTH);

@@ -84,7 +84,9 @@ pub fn line(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), thickness: i64, c:
 pub fn silhouette_panel(sil: &Silhouette, zoom: u32) -> RgbImage {
     let s = sil.size as u32;
     RgbImage::from_fn(s * zoom, s * zoom, |x, y| {
-        let a = sil.data[((y / zoom) * s + x / zoom) as usize].clamp(0.0, 1.0);
+        let a = sil
+            .get(((y / zoom) * s + x / zoom) as usize)
+            .clamp(0.0, 1.0);
         let v = (255.0 - a * 90.0).round() as u8;
         Rgb([v, v, v])
     })
@@ -138,7 +140,7 @@ mod tests {
     #[test]
     fn dots_land_on_their_pixels_over_the_silhouette() {
         let mut sil = Silhouette::empty(8);
-        sil.data[2 * 8 + 3] = 1.0; // row 2, col 3
+        sil.values_mut()[2 * 8 + 3] = 1.0; // row 2, col 3
         let mut img = silhouette_panel(&sil, 4);
         assert_eq!(img.dimensions(), (32, 32));
         assert_eq!(*img.get_pixel(0, 0), WHITE);

@@ -62,6 +62,14 @@ pub struct CategoryMetrics {
     pub mesh: Option<MeshMetrics>,
 }
 
+/// `k` indices spread evenly over `0..n` (all of them when `k` is 0 or at least `n`).
+fn evenly_spaced(n: usize, k: usize) -> Vec<usize> {
+    if k == 0 || k >= n {
+        return (0..n).collect();
+    }
+    (0..k).map(|j| j * n / k).collect()
+}
+
 fn mean(v: &[f32]) -> f32 {
     if v.is_empty() {
         0.0
@@ -222,12 +230,13 @@ pub fn evaluate(
         let (mean_hull, mean_gt) = if per_object_fit {
             (None, None)
         } else {
-            let hulls: Vec<_> = cat
-                .train
+            let picked = evenly_spaced(cat.train.len(), cfg.reference_objects);
+            let hulls: Vec<_> = picked
                 .iter()
-                .map(|o| object_hull(o, &protocol).maxpool)
+                .map(|&i| object_hull(&cat.train[i], &protocol).maxpool)
                 .collect();
-            (mean_shape(&hulls), mean_shape(&cat.train_gt))
+            let gts: Vec<_> = picked.iter().map(|&i| cat.train_gt[i].clone()).collect();
+            (mean_shape(&hulls), mean_shape(&gts))
         };
         let mut acc = Accumulators::default();
         let mut mesh_scores: Vec<MeshScore> = Vec::new();
@@ -424,4 +433,23 @@ fn summarize(scores: &[MeshScore], cfg: &EvalConfig, objects: usize) -> Option<M
         surface_points: cfg.surface_points,
         fscore_threshold: cfg.fscore_threshold,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::evenly_spaced;
+
+    #[test]
+    fn reference_objects_are_spread_over_the_whole_split() {
+        assert_eq!(evenly_spaced(5, 0), [0, 1, 2, 3, 4]);
+        assert_eq!(evenly_spaced(5, 9), [0, 1, 2, 3, 4]);
+        assert_eq!(evenly_spaced(10, 4), [0, 2, 5, 7]);
+        let picked = evenly_spaced(1000, 256);
+        assert_eq!(picked.len(), 256);
+        assert!(picked.windows(2).all(|w| w[0] < w[1]));
+        assert!(
+            *picked.last().unwrap() >= 996,
+            "reaches the end of the split"
+        );
+    }
 }

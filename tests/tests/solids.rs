@@ -154,11 +154,11 @@ fn silhouettes_are_antialiased_and_symmetric_for_a_centred_sphere() {
     let sils = silhouettes(&sphere(0.4));
     for s in &sils {
         assert!(
-            s.data.iter().any(|&a| a > 0.0 && a < 1.0),
+            s.values().any(|a| a > 0.0 && a < 1.0),
             "edge pixels are fractional"
         );
-        let area: f32 = s.data.iter().sum();
-        let area0: f32 = sils[0].data.iter().sum();
+        let area: f32 = s.values().sum();
+        let area0: f32 = sils[0].values().sum();
         assert!(
             (area - area0).abs() / area0 < 0.01,
             "a centred sphere looks the same from every azimuth"
@@ -167,7 +167,7 @@ fn silhouettes_are_antialiased_and_symmetric_for_a_centred_sphere() {
     // Projected disc area: the sphere's silhouette from distance d subtends asin(r/d).
     let cam = Camera::nmr(0);
     let half = (0.4f32 / 2.732).asin().tan() * cam.focal_px();
-    let area0: f32 = sils[0].data.iter().sum();
+    let area0: f32 = sils[0].values().sum();
     let disc = std::f32::consts::PI * half * half;
     assert!((area0 - disc).abs() / disc < 0.03, "{area0} vs {disc}");
 }

@@ -241,7 +241,7 @@ pub fn render_silhouette(
     let mut out = Silhouette::empty(camera.image_size);
     for ((pixel, _), ray_values) in rays.iter().zip(values.chunks(samples)) {
         if ray_values.iter().any(|&v| v >= level) {
-            out.data[*pixel] = 1.0;
+            out.values_mut()[*pixel] = 1.0;
         }
     }
     out
@@ -286,7 +286,7 @@ pub fn render_field_silhouette(
     let level = model.level();
     for ((pixel, _), p) in rays.iter().zip(psi) {
         if p >= level {
-            out.data[*pixel] = 1.0;
+            out.values_mut()[*pixel] = 1.0;
         }
     }
     out
@@ -319,7 +319,7 @@ mod tests {
                         row: row as f32,
                     });
                     if ray.sphere_interval(Vec3::ZERO, r).is_some() {
-                        exact.data[row * cam.image_size + col] = 1.0;
+                        exact.values_mut()[row * cam.image_size + col] = 1.0;
                     }
                 }
             }
@@ -368,14 +368,14 @@ mod tests {
                 .collect()
         };
         let sil = render_silhouette(&Camera::nmr(3), 64, INDICATOR_LEVEL, outside);
-        assert!(sil.data.iter().all(|&v| v == 0.0));
+        assert!(sil.values().all(|v| v == 0.0));
         // The whole cube is occupied: its projection is covered, and the corners of the image
         // (outside the cube's projection) are not.
         let full = |p: &[f32]| vec![1.0; p.len() / 3];
         let sil = render_silhouette(&Camera::nmr(0), 8, INDICATOR_LEVEL, full);
-        let covered = sil.data.iter().filter(|&&v| v > 0.5).count();
-        assert!(covered > 0 && covered < sil.data.len());
-        assert_eq!(sil.data[0], 0.0);
+        let covered = sil.values().filter(|&v| v > 0.5).count();
+        assert!(covered > 0 && covered < sil.len());
+        assert_eq!(sil.get(0), 0.0);
     }
 
     /// A ball of radius `r` as a model: logits `(r − |p|)·k`.
@@ -400,14 +400,14 @@ mod tests {
         let cam = Camera::nmr(5);
         let via_max = render_field_silhouette(&ball, None, &cam, 48, &MaxPool {}, &dev);
         let reference = render_silhouette(&cam, 48, 0.5, |p| field_values(&ball, None, p, &dev));
-        assert_eq!(via_max.data, reference.data);
-        assert!(via_max.data.iter().any(|&v| v > 0.0));
+        assert_eq!(via_max, reference);
+        assert!(via_max.values().any(|v| v > 0.0));
         // A soft max lies below the max, so its silhouette is inside the max's; a warm one
         // (nearer the mean) drops rays that graze the ball.
         let warm = SoftMax { temperature: 1.0 };
         let soft = render_field_silhouette(&ball, None, &cam, 48, &warm, &dev);
-        let inside = soft.data.iter().zip(&via_max.data).all(|(s, m)| *s <= *m);
-        let fewer = soft.data.iter().sum::<f32>() < via_max.data.iter().sum::<f32>();
+        let inside = soft.values().zip(via_max.values()).all(|(s, m)| s <= m);
+        let fewer = soft.values().sum::<f32>() < via_max.values().sum::<f32>();
         assert!(inside && fewer);
     }
 }

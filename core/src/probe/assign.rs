@@ -350,7 +350,7 @@ mod tests {
         let sils: Vec<Silhouette> = (0..24)
             .map(|v| {
                 let mut s = Silhouette::empty(64);
-                for (i, x) in s.data.iter_mut().enumerate() {
+                for (i, x) in s.values_mut().iter_mut().enumerate() {
                     *x = (((i / 64) as f32 - 32.0).hypot((i % 64) as f32 - 32.0 + v as f32 * 0.3)
                         < 18.0) as u8 as f32;
                 }
@@ -396,7 +396,7 @@ mod tests {
     fn hull_reading_drops_anchors_off_the_hull_that_the_own_silhouette_keeps() {
         let cams = [Camera::nmr(0), Camera::nmr(6)];
         let mut full = Silhouette::empty(64);
-        full.data.fill(1.0);
+        full.values_mut().fill(1.0);
         let sils = [full, Silhouette::empty(64)];
         let anchor = Vec3::new(0.05, 0.02, -0.03);
         let (px, _) = cams[0].project(anchor);

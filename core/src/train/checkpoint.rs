@@ -37,16 +37,24 @@ pub fn save(trainer: &Trainer, dir: &Path) -> Result<()> {
     let name = format!("step-{:07}", trainer.step);
     let sub = dir.join(&name);
     std::fs::create_dir_all(&sub).map_err(|e| Error::io(&sub, e))?;
-    let model_path = sub.join("model.bpk");
-    trainer
-        .model
-        .save_weights(&model_path)
-        .map_err(|e| record_error(&model_path, e))?;
-    let optim_path = sub.join("optim.bpk");
-    trainer
-        .optim
-        .save(&optim_path)
-        .map_err(|e| record_error(&optim_path, e))?;
+    let written = (|| {
+        let model_path = sub.join("model.bpk");
+        trainer
+            .model
+            .save_weights(&model_path)
+            .map_err(|e| record_error(&model_path, e))?;
+        let optim_path = sub.join("optim.bpk");
+        trainer
+            .optim
+            .save(&optim_path)
+            .map_err(|e| record_error(&optim_path, e))
+    })();
+    if let Err(e) = written {
+        // A half-written checkpoint (a full disk) is never named by `latest.json`; removing it
+        // gives its space back. Best effort: the error that matters is `e`.
+        let _ = std::fs::remove_dir_all(&sub);
+        return Err(e);
+    }
     let state = CheckpointState {
         step: trainer.step,
         dir: name.clone(),

@@ -182,13 +182,13 @@ impl ObjectRecord {
 /// One rendered view as Kato's `(4, S, S)` planes: RGB composited over white then inverted
 /// (`255·(1 − c)·α`, so the background is 0), alpha = coverage.
 pub fn encode_kato_view(view: &RenderedView) -> Vec<u8> {
-    let plane = view.alpha.data.len();
+    let plane = view.alpha.len();
     let mut out = vec![0u8; 4 * plane];
     for (p, c) in view.over_white().enumerate() {
         for ch in 0..3 {
             out[ch * plane + p] = to_u8(1.0 - c[ch]);
         }
-        out[3 * plane + p] = to_u8(view.alpha.data[p]);
+        out[3 * plane + p] = to_u8(view.alpha.get(p));
     }
     out
 }

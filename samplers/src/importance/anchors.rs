@@ -203,7 +203,7 @@ pub(super) fn object_key(object: &Supervision) -> u64 {
     let mut h = DefaultHasher::new();
     for s in &object.silhouettes {
         s.size.hash(&mut h);
-        for v in &s.data {
+        for v in s.values() {
             h.write_u32(v.to_bits());
         }
     }

@@ -22,8 +22,8 @@ use crate::uniform::uniform_pixel;
 /// about two pixels wide straddling the contour (one pixel on each side of a sharp edge).
 pub fn contour_map(s: &Silhouette) -> Vec<f32> {
     let n = s.size as isize;
-    let at = |r: isize, c: isize| s.data[(r.clamp(0, n - 1) * n + c.clamp(0, n - 1)) as usize];
-    let mut w = Vec::with_capacity(s.data.len());
+    let at = |r: isize, c: isize| s.get((r.clamp(0, n - 1) * n + c.clamp(0, n - 1)) as usize);
+    let mut w = Vec::with_capacity(s.len());
     for r in 0..n {
         for c in 0..n {
             let lap = at(r - 1, c) + at(r + 1, c) + at(r, c - 1) + at(r, c + 1) - 4.0 * at(r, c);

@@ -33,7 +33,7 @@ fn add_disc(s: &mut Silhouette, col: f32, row: f32, radius: f32, value: f32) {
                 let y = r as f32 - 0.5 + ((k / 8) as f32 + 0.5) / 8.0;
                 hits += ((x - col).hypot(y - row) < radius) as u32;
             }
-            s.data[r * n + c] += value * hits as f32 / 64.0;
+            s.values_mut()[r * n + c] += value * hits as f32 / 64.0;
         }
     }
 }
@@ -61,7 +61,7 @@ fn sphere_object(centre: Vec3, radius: f32) -> Supervision {
                         };
                         hits += cam.ray(px).sphere_interval(centre, radius).is_some() as u32;
                     }
-                    s.data[r * n + c] = hits as f32 / 16.0;
+                    s.values_mut()[r * n + c] = hits as f32 / 16.0;
                 }
             }
             s
@@ -121,7 +121,7 @@ fn normal_pair_is_two_independent_standard_normals() {
 #[test]
 fn contour_map_is_the_absolute_laplacian_with_edge_replication() {
     let mut s = Silhouette::empty(5);
-    s.data[2 * 5 + 2] = 1.0;
+    s.values_mut()[2 * 5 + 2] = 1.0;
     let w = contour_map(&s);
     assert_eq!(w[2 * 5 + 2], 4.0);
     for i in [5 + 2, 3 * 5 + 2, 2 * 5 + 1, 2 * 5 + 3] {
@@ -132,17 +132,14 @@ fn contour_map_is_the_absolute_laplacian_with_edge_replication() {
     let mut half = Silhouette::empty(6);
     for r in 0..6 {
         for c in 0..3 {
-            half.data[r * 6 + c] = 0.5;
+            half.values_mut()[r * 6 + c] = 0.5;
         }
     }
     let w = contour_map(&half);
     for r in 0..6 {
         assert_eq!(&w[r * 6..r * 6 + 6], &[0.0, 0.0, 0.5, 0.5, 0.0, 0.0]);
     }
-    let full = Silhouette {
-        size: 6,
-        data: vec![1.0; 36],
-    };
+    let full = Silhouette::from_values(6, vec![1.0; 36]);
     assert!(contour_map(&full).iter().all(|&v| v == 0.0));
 }
 
@@ -181,7 +178,7 @@ fn importance_rays_bandwidth_is_in_ndc_units() {
     // from the centre has variance 2/8 (neighbours) + 1/12 (pixel jitter) + σ_px², with
     // σ_px = σ·S/2 = 0.1·32 = 3.2 pixels.
     let mut s = Silhouette::empty(64);
-    s.data[32 * 64 + 32] = 1.0;
+    s.values_mut()[32 * 64 + 32] = 1.0;
     let sup = Supervision::nmr(vec![s; 24]);
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     let rays = ImportanceRays {
@@ -279,13 +276,7 @@ fn importance_rays_split_between_regions_as_their_summed_weights() {
 
 #[test]
 fn importance_rays_fall_back_to_uniform_without_contour() {
-    let full = Supervision::nmr(vec![
-        Silhouette {
-            size: 64,
-            data: vec![1.0; 64 * 64],
-        };
-        24
-    ]);
+    let full = Supervision::nmr(vec![Silhouette::from_values(64, vec![1.0; 64 * 64]); 24]);
     for (seed, sup) in [(14, blank()), (15, full)] {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let px = ImportanceRays::default().sample_pixels(&sup, 0, 64_000, &mut rng);
