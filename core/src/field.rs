@@ -145,6 +145,13 @@ pub trait FieldModelConfig: Send + Sync + Debug {
     /// device's RNG.
     fn init(&self, device: &Device) -> Box<dyn FieldModel>;
 
+    /// Multiply-adds per evaluated point of the implicit decoder (what a point costs; the latent's
+    /// share is paid once per object), for throughput figures in `experiments bench`. Default:
+    /// unknown.
+    fn decoder_macs_per_point(&self) -> Option<usize> {
+        None
+    }
+
     /// Loads the weights this configuration asks a fresh model to start from (an ImageNet
     /// ResNet for the encoder, say) into `model`, built by [`init`](Self::init). Called once
     /// when training starts from step 0, never on `--resume` or for evaluation (a checkpoint

@@ -12,6 +12,9 @@ use crate::field::{Field, FieldModelConfig};
 pub struct FieldQuery<'a> {
     pub model: &'a dyn Field,
     pub latent: Option<Tensor<2>>,
+    /// The 0-based index of the optimizer step this loss is for (a term evaluated only every
+    /// k-th step reads it).
+    pub step: usize,
 }
 
 impl FieldQuery<'_> {

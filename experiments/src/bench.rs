@@ -7,13 +7,26 @@
 //! read). Reported: median step time, decoder points evaluated per second (anchors per step /
 //! device time), ray–anchor pairs decided per second (rays × anchors per step / probe time: the
 //! pairs the all-pairs reference would test) and pairs assigned per step.
+//!
+//! With regularizers, the same steps (same seed, same batches) are timed a second time without
+//! them, in the same process, and a second table gives the regularizers' share of the mean step
+//! (`1 − without/with`; the mean, since a term evaluated every k steps is in only some steps).
+//! It also gives the decoder's achieved GFLOP/s on the steps without
+//! regularizers, `6 · MACs per point · anchors / device time`. The factor 6 counts the forward
+//! pass (2 FLOPs per multiply-add) and the backward pass (twice that). The device time also
+//! holds the aggregation, the optimizer and, for image models, the encoder, so this is a lower
+//! bound. Beside it is a ceiling: the GFLOP/s of a plain `[4096, 256] × [256, 256]` matrix
+//! product on the same device, timed in the same run.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use anyhow::{Result, bail};
-use fieldprobe_core::train::{StepStats, TrainRun, TrainSpec, Trainer};
+use burn::prelude::*;
+use fieldprobe_core::object::ObjectViews;
+use fieldprobe_core::train::{Components, StepStats, TrainRun, TrainSpec, Trainer};
 
-use fieldprobe::experiment::load_experiment_with;
+use fieldprobe::experiment::{Experiment, load_experiment_with};
 use fieldprobe::loader::{ensure_dataset, load};
 use fieldprobe::overrides::Overrides;
 
@@ -75,39 +88,15 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let data = load(&exp)?;
     let objects: Vec<_> = data.iter().flat_map(|c| c.train.iter().cloned()).collect();
     let selected = exp.backend.select()?;
-    let comps = exp
-        .components()
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.file.display()))?;
+    let comps = || {
+        exp.components()
+            .map_err(|e| anyhow::anyhow!("{}: {e}", args.file.display()))
+    };
     let spec = exp.probe.spec;
-    let mut trainer = Trainer::new(exp.model.as_ref(), &selected.device, exp.seed);
-    // The run's own loop, untimed warm-up steps first; the hook reads each step's timings.
-    let schedule = TrainSpec {
-        steps: args.warmup + args.steps,
-        checkpoint_every: 0,
-        ..exp.train.clone()
-    };
-    let run = TrainRun {
-        objects: &objects,
-        comps: &comps,
-        probe: &spec,
-        schedule: &schedule,
-        uses_image: exp.model.uses_image(),
-        seed: exp.seed,
-    };
-    let (mut step_s, mut probe_s, mut device_s) = (Vec::new(), Vec::new(), Vec::new());
-    let mut last = StepStats::default();
-    let mut time = |_: &Trainer, s: &StepStats| {
-        if s.step > args.warmup {
-            probe_s.push(s.probe_seconds);
-            device_s.push(s.device_seconds);
-            step_s.push(s.probe_seconds + s.device_seconds);
-            last = *s;
-        }
-    };
-    trainer.fit(&run, None, &mut time)?;
-    let (points, pairs) = (last.points, last.pairs);
-    let decided = last.rays as u64 * spec.anchors as u64;
-    let (st, pr, dv) = (median(step_s), median(probe_s), median(device_s));
+    let with = time_steps(&exp, &comps()?, &objects, &selected.device, &args)?;
+    let (points, pairs) = (with.last.points, with.last.pairs);
+    let decided = with.last.rays as u64 * spec.anchors as u64;
+    let (st, pr, dv) = (with.step, with.probe, with.device);
     println!(
         "| experiment | backend | batch | anchors/object | rays/step | median step (s) | probe (s) | device (s) | decoder points/s | pairs decided/s | pairs assigned/step |"
     );
@@ -126,5 +115,102 @@ pub fn run(args: BenchArgs) -> Result<()> {
         decided as f64 / pr,
         pairs
     );
+    let plain = if exp.regularizers.is_empty() {
+        with
+    } else {
+        let mut bare = comps()?;
+        bare.regularizers.clear();
+        time_steps(&exp, &bare, &objects, &selected.device, &args)?
+    };
+    let gflops = exp
+        .model
+        .decoder_macs_per_point()
+        .map(|macs| 6.0 * macs as f64 * plain.last.points as f64 / plain.device / 1e9);
+    let ceiling = matmul_gflops(&selected.device);
+    println!();
+    println!(
+        "| median step (s) | mean step (s) | mean without regularizers (s) | regularizers' share | decoder GFLOP/s (≥) | matmul GFLOP/s |"
+    );
+    println!("|---|---|---|---|---|---|");
+    println!(
+        "| {:.4} | {:.4} | {:.4} | {:.0} % | {} | {:.1} |",
+        with.step,
+        with.mean,
+        plain.mean,
+        100.0 * (1.0 - plain.mean / with.mean).max(0.0),
+        gflops.map_or("–".to_string(), |g| format!("{g:.1}")),
+        ceiling
+    );
     Ok(())
+}
+
+/// Medians of timed steps, and the last step's counts.
+#[derive(Clone, Copy)]
+struct Timings {
+    step: f64,
+    /// Mean step: a term evaluated every k steps makes the median misleading.
+    mean: f64,
+    probe: f64,
+    device: f64,
+    last: StepStats,
+}
+
+/// Times `args.steps` training steps (after `args.warmup` untimed ones) of a fresh model with
+/// the experiment's seed, through the run's own loop.
+fn time_steps(
+    exp: &Experiment,
+    comps: &Components,
+    objects: &[ObjectViews],
+    device: &Device,
+    args: &BenchArgs,
+) -> Result<Timings> {
+    let mut trainer = Trainer::new(exp.model.as_ref(), device, exp.seed);
+    let schedule = TrainSpec {
+        steps: args.warmup + args.steps,
+        checkpoint_every: 0,
+        ..exp.train.clone()
+    };
+    let run = TrainRun {
+        objects,
+        comps,
+        probe: &exp.probe.spec,
+        schedule: &schedule,
+        uses_image: exp.model.uses_image(),
+        seed: exp.seed,
+    };
+    let (mut step_s, mut probe_s, mut device_s) = (Vec::new(), Vec::new(), Vec::new());
+    let mut last = StepStats::default();
+    let mut time = |_: &Trainer, s: &StepStats| {
+        if s.step > args.warmup {
+            probe_s.push(s.probe_seconds);
+            device_s.push(s.device_seconds);
+            step_s.push(s.probe_seconds + s.device_seconds);
+            last = *s;
+        }
+    };
+    trainer.fit(&run, None, &mut time)?;
+    Ok(Timings {
+        mean: step_s.iter().sum::<f64>() / step_s.len() as f64,
+        step: median(step_s),
+        probe: median(probe_s),
+        device: median(device_s),
+        last,
+    })
+}
+
+/// GFLOP/s of a `[4096, 256] × [256, 256]` product on `device` (median of 9 after a warm-up).
+fn matmul_gflops(device: &Device) -> f64 {
+    let (m, k, n) = (4096, 256, 256);
+    let a = Tensor::<2>::random([m, k], burn::tensor::Distribution::Default, device);
+    let b = Tensor::<2>::random([k, n], burn::tensor::Distribution::Default, device);
+    let mut times = Vec::new();
+    for i in 0..10 {
+        let t0 = Instant::now();
+        let c = a.clone().matmul(b.clone());
+        let _ = c.into_data();
+        if i > 0 {
+            times.push(t0.elapsed().as_secs_f64());
+        }
+    }
+    2.0 * (m * k * n) as f64 / median(times) / 1e9
 }

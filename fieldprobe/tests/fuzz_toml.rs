@@ -16,7 +16,7 @@ use rand_chacha::ChaCha8Rng;
 fn shipped() -> Vec<(PathBuf, String)> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments");
     let mut files = Vec::new();
-    for dir in ["", "ablations", "ablations/paper", "sdf", "sweeps"] {
+    for dir in ["", "ablations", "ablations/paper", "bench", "sdf", "sweeps"] {
         for e in std::fs::read_dir(root.join(dir)).unwrap() {
             let p = e.unwrap().path();
             if p.extension().is_some_and(|x| x == "toml") {

@@ -25,6 +25,10 @@ impl Default for PerObjectConfig {
 
 #[typetag::serde(name = "per_object")]
 impl FieldModelConfig for PerObjectConfig {
+    fn decoder_macs_per_point(&self) -> Option<usize> {
+        Some(self.decoder.macs_per_point())
+    }
+
     fn validate(&self) -> Result<(), String> {
         self.decoder.validate()
     }
@@ -61,5 +65,25 @@ impl Field for PerObject {
 
     fn logits(&self, _latent: Option<Tensor<2>>, points: Tensor<3>) -> Tensor<2> {
         self.decoder.forward(None, points)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A per-object decoder's parameters are its multiply-adds per point plus one bias per unit.
+    #[test]
+    fn multiply_adds_per_point_match_the_weights() {
+        let config = PerObjectConfig {
+            decoder: DecoderConfig {
+                hidden: vec![48, 32, 16],
+                frequencies: 3,
+            },
+        };
+        let model = config.init(&Device::flex().autodiff());
+        let macs = config.decoder_macs_per_point().unwrap();
+        assert_eq!(macs, (3 + 18) * 48 + 48 * 32 + 32 * 16 + 16);
+        assert_eq!(model.parameters(), macs + 48 + 32 + 16 + 1);
     }
 }

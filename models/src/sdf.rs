@@ -94,6 +94,10 @@ impl Default for SdfConfig {
 
 #[typetag::serde(name = "sdf")]
 impl FieldModelConfig for SdfConfig {
+    fn decoder_macs_per_point(&self) -> Option<usize> {
+        Some(self.decoder().macs_per_point())
+    }
+
     fn validate(&self) -> Result<(), String> {
         if !(self.beta > BETA_MIN && self.beta.is_finite()) {
             return Err(format!(

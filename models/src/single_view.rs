@@ -38,6 +38,10 @@ impl Default for SingleViewConfig {
 
 #[typetag::serde(name = "single_view")]
 impl FieldModelConfig for SingleViewConfig {
+    fn decoder_macs_per_point(&self) -> Option<usize> {
+        Some(self.decoder.macs_per_point())
+    }
+
     fn validate(&self) -> Result<(), String> {
         if self.latent == 0 {
             return Err("model.latent must be positive".into());

@@ -323,6 +323,7 @@ mod tests {
             let q = FieldQuery {
                 model: model.as_ref(),
                 latent: None,
+                step: 0,
             };
             let loss = cfg.loss(&q, &a).unwrap();
             losses.push(loss.clone().into_scalar::<f32>());

@@ -73,6 +73,14 @@
 //! (8192 anchors), while 49 k points are ≈ 0.4× the paper's 8 × 16000 anchors. Lower
 //! `max_anchors` for small per-object fits; the capped term stays unbiased.
 //!
+//! **Evaluated every k steps** (`every = k`, default 1): the term is computed at steps
+//! `0, k, 2k, …` only, with weight `k·λ`, and is absent from the other steps. Over any `k`
+//! consecutive steps its gradient sums to `k` times the every-step gradient at (nearly) the same
+//! parameters, so Adam sees the same expected prior at `1/k` of its cost; what changes is the
+//! step-to-step variance (one large push every k steps instead of k small ones). The finite
+//! differences, Δd and the gate are unchanged. `experiments bench` reports the regularizer's
+//! share of a step, to choose k.
+//!
 //! [`loss`]: Regularizer::loss
 
 use burn::prelude::*;
@@ -138,6 +146,10 @@ pub struct NormalConsistency {
     /// `logit` (default) or `occupancy`: what the finite differences are taken of.
     #[serde(default)]
     pub differences: Differences,
+    /// Evaluate the term at every `every`-th step only (steps `0, k, 2k, …`), with its weight
+    /// multiplied by `k` (default 1: every step). See "Evaluated every k steps" in the module docs.
+    #[serde(default = "NormalConsistency::default_every")]
+    pub every: usize,
 }
 
 impl NormalConsistency {
@@ -156,6 +168,9 @@ impl NormalConsistency {
     fn default_max_anchors() -> usize {
         2048
     }
+    fn default_every() -> usize {
+        1
+    }
 
     /// Checks the ranges; the error names the field.
     pub fn validate(&self) -> Result<(), String> {
@@ -169,6 +184,9 @@ impl NormalConsistency {
         if !(self.epsilon > 0.0 && self.epsilon <= 0.5) {
             return Err(format!("epsilon must be in (0, 0.5], got {}", self.epsilon));
         }
+        if self.every == 0 {
+            return Err("every must be at least 1 (1 = every step)".into());
+        }
         Ok(())
     }
 
@@ -180,6 +198,18 @@ impl NormalConsistency {
         } else {
             n.min(4 * (self.max_anchors / b.max(1)).max(1))
         }
+    }
+
+    /// The configuration that acts at 0-based step `step`: `None` between evaluations, else this
+    /// one with its weight multiplied by `every` (so that the term's sum over any `every`
+    /// consecutive steps is `every ×` the term once: the same expected total as every step).
+    pub fn at_step(&self, step: usize) -> Option<Self> {
+        let every = self.every.max(1);
+        step.is_multiple_of(every).then_some(Self {
+            weight: self.weight * every as f32,
+            every: 1,
+            ..*self
+        })
     }
 
     /// `W(v)`.
@@ -230,15 +260,17 @@ impl Default for NormalConsistency {
             epsilon: Self::default_epsilon(),
             max_anchors: Self::default_max_anchors(),
             differences: Differences::default(),
+            every: Self::default_every(),
         }
     }
 }
 
 impl Regularizer for NormalConsistency {
     fn loss(&self, field: &FieldQuery<'_>, anchors: &Tensor<3>) -> Option<Tensor<1>> {
+        let this = self.at_step(field.step)?;
         match self.differences {
-            Differences::Logit => self.loss_with(|p| field.logits(p), anchors),
-            Differences::Occupancy => self.loss_with(|p| field.eval(p), anchors),
+            Differences::Logit => this.loss_with(|p| field.logits(p), anchors),
+            Differences::Occupancy => this.loss_with(|p| field.eval(p), anchors),
         }
     }
 }
@@ -255,7 +287,7 @@ register_component!(
     Regularizer,
     "normal_consistency",
     "the paper's p-norm normal consistency of near-surface anchors and their 6 neighbours (eq. 7)",
-    "type = \"normal_consistency\"\nweight = 0.01\np = 0.8\ndelta = 0.03\nepsilon = 0.25\nmax_anchors = 2048\ndifferences = \"logit\""
+    "type = \"normal_consistency\"\nweight = 0.01\np = 0.8\ndelta = 0.03\nepsilon = 0.25\nmax_anchors = 2048\ndifferences = \"logit\"\nevery = 1"
 );
 
 /// The anchors whose stencils are evaluated: `per_object` slots per object.

@@ -327,7 +327,7 @@ fn a_non_finite_loss_stops_training_with_a_clear_error() {
     let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
     let mut data = objects(1);
     for s in &mut std::sync::Arc::make_mut(&mut data[0].supervision).silhouettes {
-        s.data.iter_mut().for_each(|v| *v = f32::NAN);
+        s.values_mut().iter_mut().for_each(|v| *v = f32::NAN);
     }
     let dev = BackendChoice::Flex.select().unwrap().device;
     let c = comps();
@@ -367,6 +367,7 @@ fn compacted_batches_give_the_same_loss_as_full_ones() {
             batch: ProbeBatch::assemble(&probes, compact),
             images: Some((images.clone(), data[0].image_size)),
             probe_seconds: 0.0,
+            step: 0,
         };
         let (_, sil, _) = probe_loss(t.model.as_ref(), &prepared, &c, &t.device);
         (sil.into_scalar::<f32>(), prepared.batch)
@@ -418,6 +419,7 @@ fn the_loss_is_the_silhouette_term_plus_every_regularizer() {
         batch: ProbeBatch::assemble(&[probe], true),
         images: None,
         probe_seconds: 0.0,
+        step: 0,
     };
     let terms = |regularizers: Vec<Box<dyn Regularizer>>| {
         let c = Components {

@@ -161,6 +161,8 @@ pub struct PreparedStep {
     /// `[B, 4, S, S]` input images, if the model reads images.
     pub images: Option<(Vec<f32>, usize)>,
     pub probe_seconds: f64,
+    /// The 0-based step the batch was drawn for.
+    pub step: usize,
 }
 
 /// The RNG of step `step` for object slot `slot` under `seed`.
@@ -218,6 +220,7 @@ pub fn prepare_step(
         batch: ProbeBatch::assemble(&probes, true),
         images,
         probe_seconds: t0.elapsed().as_secs_f64(),
+        step,
     }
 }
 
@@ -267,7 +270,11 @@ pub fn probe_loss(
             TensorData::new(b.sampled.clone(), [nb, b.sampled_per_object, 3]),
             device,
         );
-        let field = FieldQuery { model, latent };
+        let field = FieldQuery {
+            model,
+            latent,
+            step: prepared.step,
+        };
         comps
             .regularizers
             .iter()

@@ -68,6 +68,15 @@ impl DecoderConfig {
         3 + 6 * self.frequencies
     }
 
+    /// Multiply-adds per point: the encoded point into the first layer, the hidden layers, the
+    /// output (the latent enters as one bias per object, not per point).
+    pub fn macs_per_point(&self) -> usize {
+        let last = *self.hidden.last().unwrap_or(&0);
+        self.point_dim() * self.hidden.first().unwrap_or(&0)
+            + self.hidden.windows(2).map(|w| w[0] * w[1]).sum::<usize>()
+            + last
+    }
+
     /// Builds a decoder for latents of size `latent` (0 = no latent).
     pub fn init(&self, latent: usize, device: &Device) -> Decoder {
         let h0 = self.hidden[0];

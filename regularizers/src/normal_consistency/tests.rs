@@ -426,6 +426,7 @@ fn check_model(config: &dyn FieldModelConfig, latent_size: usize) {
         let field = FieldQuery {
             model: model.as_ref(),
             latent: latent.clone(),
+            step: 0,
         };
         for (p, differences) in [
             (0.8f32, Differences::Occupancy),
@@ -440,6 +441,7 @@ fn check_model(config: &dyn FieldModelConfig, latent_size: usize) {
                 max_anchors: 0,
                 weight: 0.5,
                 differences,
+                every: 1,
             };
             let got = scalar(cfg.loss(&field, &a).expect("anchors pass"));
             let want = (0..b)
@@ -648,6 +650,7 @@ fn gradients_reach_every_parameter_and_are_finite() {
     let field = FieldQuery {
         model: &model,
         latent: None,
+        step: 0,
     };
     // ε = 0.5 lets every anchor pass (a fresh model is near 0.5 everywhere anyway).
     for (p, differences) in [(0.8f32, Differences::Logit), (2.0, Differences::Occupancy)] {
@@ -704,6 +707,7 @@ fn cost_of_the_regularizer_against_a_silhouette_step() {
     let field = FieldQuery {
         model: model.as_ref(),
         latent: None,
+        step: 0,
     };
     let silhouette_step = || {
         let phi = field.eval(a.clone());
@@ -748,4 +752,57 @@ fn cost_of_the_regularizer_against_a_silhouette_step() {
          {reg:.3} s forward+backward ({:.1}× the silhouette step)",
         reg / sil
     );
+}
+
+/// `every = k`: the term acts at steps `0, k, 2k, …` only, with `k ×` the weight, so over any k
+/// consecutive steps it sums to k times the plain term (the same field and anchors).
+#[test]
+fn a_term_every_k_steps_sums_to_the_plain_term_over_k_steps() {
+    let dev = Device::flex();
+    let config = PerObjectConfig {
+        decoder: DecoderConfig {
+            hidden: vec![32, 32],
+            frequencies: 2,
+        },
+    };
+    let model = {
+        let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
+        dev.seed(5);
+        config.init(&dev)
+    };
+    let mut rng = Lcg(4);
+    let anchors: Vec<Vec3> = (0..300).map(|_| rng.point(0.45)).collect();
+    let a = points(&[anchors], &dev);
+    let plain = NormalConsistency {
+        epsilon: 0.5,
+        ..Default::default()
+    };
+    let at = |cfg: &NormalConsistency, step: usize| {
+        let field = FieldQuery {
+            model: model.as_ref(),
+            latent: None,
+            step,
+        };
+        cfg.loss(&field, &a).map(scalar)
+    };
+    let once = at(&plain, 7).expect("every anchor passes");
+    for k in [2usize, 3, 5] {
+        let sparse = NormalConsistency { every: k, ..plain };
+        let mut sum = 0.0;
+        for step in 0..3 * k {
+            let term = at(&sparse, step);
+            assert_eq!(
+                term.is_some(),
+                step.is_multiple_of(k),
+                "k = {k}, step {step}"
+            );
+            sum += term.unwrap_or(0.0);
+        }
+        let expected = 3.0 * k as f64 * once;
+        assert!(
+            (sum - expected).abs() <= 1e-5 * expected.abs(),
+            "k = {k}: {sum} vs {expected}"
+        );
+    }
+    assert!(NormalConsistency { every: 0, ..plain }.validate().is_err());
 }
