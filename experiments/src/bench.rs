@@ -2,9 +2,11 @@
 //! experiment (or of one entry of an ablation file, the base by default) on its configured
 //! backend and prints a table.
 //!
-//! Each step is timed in two parts, both synchronized: the CPU probe (sampling + binned
-//! assignment) and the device work (forward, backward, Adam; `device.sync()` before the clock is
-//! read). Reported: median step time, decoder points evaluated per second (anchors per step /
+//! Each step is timed in parts, all synchronized: the CPU probe (sampling + binned assignment,
+//! on the prefetch worker unless `train.prefetch = 0`), the time the training loop waited for it,
+//! and the device work (forward, backward, Adam; `device.sync()` before the clock is read). A
+//! step is the wait plus the device work. Reported: median step time, the share of it spent
+//! waiting for probes, decoder points evaluated per second (anchors per step /
 //! device time), ray–anchor pairs decided per second (rays × anchors per step / probe time: the
 //! pairs the all-pairs reference would test) and pairs assigned per step.
 //!
@@ -98,18 +100,20 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let decided = with.last.rays as u64 * spec.anchors as u64;
     let (st, pr, dv) = (with.step, with.probe, with.device);
     println!(
-        "| experiment | backend | batch | anchors/object | rays/step | median step (s) | probe (s) | device (s) | decoder points/s | pairs decided/s | pairs assigned/step |"
+        "| experiment | backend | batch | anchors/object | rays/step | prefetch | median step (s) | probe (s) | waiting for probes | device (s) | decoder points/s | pairs decided/s | pairs assigned/step |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     println!(
-        "| {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.3e} | {:.3e} | {} |",
+        "| {} | {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.1} % | {:.4} | {:.3e} | {:.3e} | {} |",
         exp.name,
         selected.description,
         exp.train.batch,
         spec.anchors,
         decided / spec.anchors as u64,
+        exp.train.prefetch,
         st,
         pr,
+        100.0 * with.wait / with.mean,
         dv,
         points as f64 / dv,
         decided as f64 / pr,
@@ -150,6 +154,8 @@ struct Timings {
     step: f64,
     /// Mean step: a term evaluated every k steps makes the median misleading.
     mean: f64,
+    /// Mean time the loop waited for a step's probes.
+    wait: f64,
     probe: f64,
     device: f64,
     last: StepStats,
@@ -180,16 +186,19 @@ fn time_steps(
     };
     let (mut step_s, mut probe_s, mut device_s) = (Vec::new(), Vec::new(), Vec::new());
     let mut last = StepStats::default();
+    let mut wait = 0.0;
     let mut time = |_: &Trainer, s: &StepStats| {
         if s.step > args.warmup {
             probe_s.push(s.probe_seconds);
             device_s.push(s.device_seconds);
-            step_s.push(s.probe_seconds + s.device_seconds);
+            step_s.push(s.wait_seconds + s.device_seconds);
+            wait += s.wait_seconds;
             last = *s;
         }
     };
     trainer.fit(&run, None, &mut time)?;
     Ok(Timings {
+        wait: wait / step_s.len() as f64,
         mean: step_s.iter().sum::<f64>() / step_s.len() as f64,
         step: median(step_s),
         probe: median(probe_s),

@@ -23,7 +23,7 @@ use fieldprobe_core::train::{
 use fieldprobe_models::{
     DecoderConfig, EncoderConfig, PerObjectConfig, SdfConfig, SingleViewConfig,
 };
-use fieldprobe_regularizers::Eikonal;
+use fieldprobe_regularizers::{Eikonal, NormalConsistency};
 use fieldprobe_samplers::{UniformAnchors, UniformRays};
 
 /// burn's flex RNG is process-wide: tests that seed it must not interleave.
@@ -137,6 +137,65 @@ fn schedule(steps: usize, checkpoint_every: usize) -> TrainSpec {
         lr_final: None,
         checkpoint_every,
         init_from: None,
+        prefetch: 2,
+    }
+}
+
+/// Probes prepared ahead on a worker thread make exactly the serial loop's batches: the same
+/// losses at every step (so the same weights after each), with a regularizer that reads the
+/// step index, an importance sampler with its cache, and a loop stopped early by a hook-free
+/// shorter schedule then resumed.
+#[test]
+fn prefetched_training_equals_the_serial_loop() {
+    let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
+    let data = objects(2);
+    let dev = BackendChoice::Flex.select().unwrap().device;
+    let c = Components {
+        anchor_sampler: Box::new(
+            fieldprobe_samplers::ImportanceAnchorSampler::new(
+                fieldprobe_samplers::ImportanceAnchors::default(),
+            )
+            .unwrap(),
+        ),
+        regularizers: vec![Box::new(NormalConsistency {
+            every: 3,
+            epsilon: 0.5,
+            max_anchors: 64,
+            ..NormalConsistency::default()
+        })],
+        ..comps()
+    };
+    let losses = |prefetch: usize, pause_at: Option<usize>| {
+        let mut t = Trainer::new(&model(), &dev, 5);
+        let mut out = Vec::new();
+        let mut record =
+            |_: &Trainer, s: &StepStats| out.push((s.step, s.loss, s.regularizer_loss));
+        for steps in pause_at.into_iter().chain([12]) {
+            let schedule = TrainSpec {
+                prefetch,
+                ..schedule(steps, 0)
+            };
+            let run = TrainRun {
+                objects: &data,
+                comps: &c,
+                probe: &SPEC,
+                schedule: &schedule,
+                uses_image: true,
+                seed: 5,
+            };
+            t.fit(&run, None, &mut record).unwrap();
+        }
+        out
+    };
+    let serial = losses(0, None);
+    assert_eq!(serial.len(), 12);
+    assert!(serial.iter().any(|s| s.2 > 0.0), "the regularizer acted");
+    for (prefetch, pause) in [(1, None), (3, None), (2, Some(5))] {
+        assert_eq!(
+            losses(prefetch, pause),
+            serial,
+            "prefetch {prefetch}, paused at {pause:?}"
+        );
     }
 }
 

@@ -6,8 +6,11 @@
 //! timings, the losses of a test).
 
 use std::path::Path;
+use std::time::Instant;
 
-use super::{Components, StepStats, TrainError, TrainSpec, Trainer, checkpoint, prepare_step};
+use super::{
+    Components, PreparedStep, StepStats, TrainError, TrainSpec, Trainer, checkpoint, prepare_step,
+};
 use crate::object::ObjectViews;
 use crate::probe::ProbeSpec;
 
@@ -49,27 +52,72 @@ impl Trainer {
     /// `history` and its silhouette and regularizer terms to `terms`. With `checkpoints`, a
     /// checkpoint is written there every `checkpoint_every` steps and at the end. A non-finite
     /// loss stops training before the optimizer touches the weights, the last checkpoint kept.
+    ///
+    /// With `schedule.prefetch = k > 0`, a worker thread prepares the probes of the next steps
+    /// (at most `k` ahead, a bounded channel) while this thread runs the device work, so the
+    /// device waits for the CPU only when probing is slower than a step. A step's probes depend
+    /// only on `(seed, step)`, so the batches, and with them the weights, are the ones the serial
+    /// loop makes. When training stops early, the worker's next send fails and it ends.
     pub fn fit(
         &mut self,
         run: &TrainRun<'_>,
         checkpoints: Option<&Path>,
         hooks: &mut dyn TrainHooks,
     ) -> Result<(), TrainError> {
-        let steps = run.schedule.steps;
-        let log_every = log_interval(steps);
-        // Sums over the logged interval: total, silhouette, regularizers, steps.
-        let mut acc = (0.0f32, 0.0f32, 0.0f32, 0usize);
-        while self.step < steps {
-            let prepared = prepare_step(
+        let (first, steps) = (self.step, run.schedule.steps);
+        let prepare = |step: usize| {
+            prepare_step(
                 run.objects,
                 run.comps,
                 run.probe,
                 run.schedule.batch,
                 run.uses_image,
                 run.seed,
-                self.step,
-            );
-            let stats = self.step(&prepared, run.comps, run.schedule.lr_at(self.step))?;
+                step,
+            )
+        };
+        if run.schedule.prefetch == 0 {
+            return self.fit_with(run, checkpoints, hooks, prepare);
+        }
+        std::thread::scope(|scope| {
+            let (tx, rx) = std::sync::mpsc::sync_channel(run.schedule.prefetch);
+            scope.spawn(move || {
+                for step in first..steps {
+                    if tx.send(prepare(step)).is_err() {
+                        break;
+                    }
+                }
+            });
+            self.fit_with(run, checkpoints, hooks, move |step| {
+                let prepared: PreparedStep = rx
+                    .recv()
+                    .expect("the prefetch worker prepares every step, in order");
+                assert_eq!(prepared.step, step, "prefetched steps arrive in order");
+                prepared
+            })
+        })
+    }
+
+    /// The loop of [`fit`](Self::fit), its batches from `next(step)`.
+    fn fit_with(
+        &mut self,
+        run: &TrainRun<'_>,
+        checkpoints: Option<&Path>,
+        hooks: &mut dyn TrainHooks,
+        mut next: impl FnMut(usize) -> PreparedStep,
+    ) -> Result<(), TrainError> {
+        let steps = run.schedule.steps;
+        let log_every = log_interval(steps);
+        // Sums over the logged interval: total, silhouette, regularizers, steps.
+        let mut acc = (0.0f32, 0.0f32, 0.0f32, 0usize);
+        while self.step < steps {
+            let waiting = Instant::now();
+            let prepared = next(self.step);
+            let wait_seconds = waiting.elapsed().as_secs_f64();
+            let stats = StepStats {
+                wait_seconds,
+                ..self.step(&prepared, run.comps, run.schedule.lr_at(self.step))?
+            };
             acc = (
                 acc.0 + stats.loss,
                 acc.1 + stats.silhouette_loss,
