@@ -627,15 +627,20 @@ impl ModuleVisitor for GradStats<'_> {
     }
 }
 
-#[test]
-fn gradients_reach_every_parameter_and_are_finite() {
-    let dev = Device::flex().autodiff();
-    let config = PerObjectConfig {
+/// A small per-object field (32-32, two frequencies) for tests that need any trainable field.
+fn small_per_object() -> PerObjectConfig {
+    PerObjectConfig {
         decoder: DecoderConfig {
             hidden: vec![32, 32],
             frequencies: 2,
         },
-    };
+    }
+}
+
+#[test]
+fn gradients_reach_every_parameter_and_are_finite() {
+    let dev = Device::flex().autodiff();
+    let config = small_per_object();
     let model = {
         let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
         dev.seed(3);
@@ -759,12 +764,7 @@ fn cost_of_the_regularizer_against_a_silhouette_step() {
 #[test]
 fn a_term_every_k_steps_sums_to_the_plain_term_over_k_steps() {
     let dev = Device::flex();
-    let config = PerObjectConfig {
-        decoder: DecoderConfig {
-            hidden: vec![32, 32],
-            frequencies: 2,
-        },
-    };
+    let config = small_per_object();
     let model = {
         let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
         dev.seed(5);
