@@ -72,8 +72,9 @@ pub struct TrainSpec {
     /// dataset. Read once at step 0; `--resume` continues from the checkpoint instead.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub init_from: Option<std::path::PathBuf>,
-    /// Steps whose probes (sampling and assignment, on the CPU) are prepared ahead on a worker
-    /// thread while the device runs the current step (default 2; 0 prepares each step in turn).
+    /// Steps whose probes (sampling and assignment, on the CPU) wait prepared ahead, made on a
+    /// worker thread while the device runs the current step (default 2; 0 prepares each step in
+    /// turn).
     /// Every step's probes depend only on the seed and the step index, so the results are the
     /// same either way.
     #[serde(default = "TrainSpec::default_prefetch")]
