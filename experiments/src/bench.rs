@@ -148,7 +148,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
-/// Medians of timed steps, and the last step's counts.
+/// The timed steps: median and mean step, mean wait for probes, median probe and device time,
+/// and the last step's counts.
 #[derive(Clone, Copy)]
 struct Timings {
     step: f64,

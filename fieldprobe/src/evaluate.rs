@@ -62,12 +62,24 @@ pub struct CategoryMetrics {
     pub mesh: Option<MeshMetrics>,
 }
 
-/// `k` indices spread evenly over `0..n` (all of them when `k` is 0 or at least `n`).
+/// `min(k, n)` indices spread evenly over `0..n`, the first at 0 (none when `k` is 0): how the
+/// evaluated views, the meshed views and the reference objects are picked.
 fn evenly_spaced(n: usize, k: usize) -> Vec<usize> {
-    if k == 0 || k >= n {
-        return (0..n).collect();
-    }
+    let k = k.min(n);
     (0..k).map(|j| j * n / k).collect()
+}
+
+/// The training objects the mean-shape references are built from: `eval.reference_objects` of
+/// the `n`, evenly spaced (0 = all).
+fn reference_picks(n: usize, reference_objects: usize) -> Vec<usize> {
+    evenly_spaced(
+        n,
+        if reference_objects == 0 {
+            n
+        } else {
+            reference_objects
+        },
+    )
 }
 
 fn mean(v: &[f32]) -> f32 {
@@ -80,7 +92,7 @@ fn mean(v: &[f32]) -> f32 {
 
 /// The input views used per object: `n` evenly spaced of the 24.
 pub fn eval_views(n: usize) -> Vec<usize> {
-    (0..n).map(|i| i * NUM_VIEWS / n).collect()
+    evenly_spaced(NUM_VIEWS, n)
 }
 
 /// Metrics of the meshes extracted from a category's predictions (see [`evaluate`]).
@@ -109,8 +121,9 @@ pub struct MeshMetrics {
 
 /// The views of `views` that are meshed: `n` evenly spaced among them.
 pub fn meshed_views(views: &[usize], n: usize) -> Vec<usize> {
-    (0..n.min(views.len()))
-        .map(|i| views[i * views.len() / n.min(views.len())])
+    evenly_spaced(views.len(), n)
+        .into_iter()
+        .map(|i| views[i])
         .collect()
 }
 
@@ -230,13 +243,13 @@ pub fn evaluate(
         let (mean_hull, mean_gt) = if per_object_fit {
             (None, None)
         } else {
-            let picked = evenly_spaced(cat.train.len(), cfg.reference_objects);
+            let picked = reference_picks(cat.train.len(), cfg.reference_objects);
             let hulls: Vec<_> = picked
                 .iter()
                 .map(|&i| object_hull(&cat.train[i], &protocol).maxpool)
                 .collect();
-            let gts: Vec<_> = picked.iter().map(|&i| cat.train_gt[i].clone()).collect();
-            (mean_shape(&hulls), mean_shape(&gts))
+            let gts = picked.iter().map(|&i| &cat.train_gt[i]);
+            (mean_shape(&hulls), mean_shape(gts))
         };
         let mut acc = Accumulators::default();
         let mut mesh_scores: Vec<MeshScore> = Vec::new();
@@ -437,19 +450,33 @@ fn summarize(scores: &[MeshScore], cfg: &EvalConfig, objects: usize) -> Option<M
 
 #[cfg(test)]
 mod tests {
-    use super::evenly_spaced;
+    use super::{eval_views, meshed_views, reference_picks};
 
     #[test]
     fn reference_objects_are_spread_over_the_whole_split() {
-        assert_eq!(evenly_spaced(5, 0), [0, 1, 2, 3, 4]);
-        assert_eq!(evenly_spaced(5, 9), [0, 1, 2, 3, 4]);
-        assert_eq!(evenly_spaced(10, 4), [0, 2, 5, 7]);
-        let picked = evenly_spaced(1000, 256);
+        assert_eq!(reference_picks(5, 0), [0, 1, 2, 3, 4]);
+        assert_eq!(reference_picks(5, 9), [0, 1, 2, 3, 4]);
+        assert_eq!(reference_picks(10, 4), [0, 2, 5, 7]);
+        let picked = reference_picks(1000, 256);
         assert_eq!(picked.len(), 256);
         assert!(picked.windows(2).all(|w| w[0] < w[1]));
         assert!(
             *picked.last().unwrap() >= 996,
             "reaches the end of the split"
         );
+    }
+
+    /// The view pickers give what their own formulas gave (`i·24/n`; `views[i·len/min(n, len)]`).
+    #[test]
+    fn views_are_picked_as_before() {
+        for n in 1..=24 {
+            let old: Vec<usize> = (0..n).map(|i| i * 24 / n).collect();
+            assert_eq!(eval_views(n), old, "{n} views");
+            for m in 0..=30 {
+                let k = m.min(old.len());
+                let meshed: Vec<usize> = (0..k).map(|i| old[i * old.len() / k]).collect();
+                assert_eq!(meshed_views(&old, m), meshed, "{n} views, {m} meshed");
+            }
+        }
     }
 }

@@ -179,17 +179,20 @@ pub fn object_hull(obj: &ObjectViews, protocol: &VoxelProtocol) -> FieldVoxels {
 }
 
 /// Per-voxel mean of `grids`, thresholded at ½.
-pub fn mean_shape(grids: &[VoxelGrid]) -> Option<VoxelGrid> {
-    let first = grids.first()?;
-    let mut counts = vec![0usize; first.data.len()];
+pub fn mean_shape<'a>(grids: impl IntoIterator<Item = &'a VoxelGrid>) -> Option<VoxelGrid> {
+    let mut grids = grids.into_iter().peekable();
+    let frame = grids.peek()?.frame;
+    let mut counts = vec![0usize; grids.peek()?.data.len()];
+    let mut n = 0;
     for g in grids {
+        n += 1;
         for (c, &b) in counts.iter_mut().zip(&g.data) {
             *c += b as usize;
         }
     }
     Some(VoxelGrid {
-        frame: first.frame,
-        data: counts.iter().map(|&c| 2 * c >= grids.len()).collect(),
+        frame,
+        data: counts.iter().map(|&c| 2 * c >= n).collect(),
     })
 }
 

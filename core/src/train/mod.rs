@@ -74,9 +74,8 @@ pub struct TrainSpec {
     pub init_from: Option<std::path::PathBuf>,
     /// Steps whose probes (sampling and assignment, on the CPU) wait prepared ahead, made on a
     /// worker thread while the device runs the current step (default 2; 0 prepares each step in
-    /// turn).
-    /// Every step's probes depend only on the seed and the step index, so the results are the
-    /// same either way.
+    /// turn). Every step's probes depend only on the seed and the step index, so the results are
+    /// the same either way.
     #[serde(default = "TrainSpec::default_prefetch")]
     pub prefetch: usize,
 }
