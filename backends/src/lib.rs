@@ -126,6 +126,32 @@ impl BackendChoice {
     }
 }
 
+impl Selected {
+    /// `k` devices of this backend for data-parallel training (`train.devices`): the selected
+    /// device alone for `k = 1`; flex's one CPU device `k` times (replicas on one device: the
+    /// machinery, not a speedup); for wgpu the first `k` adapters that wgpu enumerates, hardware
+    /// GPUs first, or an error saying how many there are.
+    pub fn devices(&self, k: usize) -> Result<Vec<Device>, BackendError> {
+        if k <= 1 {
+            return Ok(vec![self.device.clone()]);
+        }
+        if self.backend == "flex" {
+            return Ok(vec![self.device.clone(); k]);
+        }
+        let mut all = Device::enumerate(DeviceType::Wgpu).into_vec();
+        // Stable: hardware adapters first, in wgpu's order.
+        all.sort_by_key(|d| d.identity().and_then(|i| i.physical).is_none());
+        if all.len() < k {
+            return Err(BackendError::TooFewDevices {
+                wanted: k,
+                found: all.len(),
+            });
+        }
+        all.truncate(k);
+        Ok(all)
+    }
+}
+
 /// Why a backend cannot be used here.
 #[derive(Debug, thiserror::Error)]
 pub enum BackendError {
@@ -136,6 +162,11 @@ pub enum BackendError {
         install = vulkan::VULKAN_INSTALL
     )]
     NoVulkan(String),
+    #[error(
+        "train.devices = {wanted}, but wgpu lists {found} adapter(s) on this machine; lower \
+         train.devices"
+    )]
+    TooFewDevices { wanted: usize, found: usize },
 }
 
 fn flex() -> Selected {

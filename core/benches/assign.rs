@@ -3,12 +3,20 @@
 //! and noisy, so compare the two lines of the same run). Both return identical pairs (tested in
 //! `probe::assign`).
 //!
+//! A second group compares the CPU's binned assignment with the device one
+//! (`probe.assign_on = "device"`) on one view's 1024 rays: on flex, and on wgpu's default
+//! adapter too with `FIELDPROBE_BENCH_WGPU=1` (needs a Vulkan device; a GPU is where it pays).
+//!
 //!     cargo bench -p fieldprobe-core --bench assign
 
+use burn::prelude::Device;
+use burn::tensor::DeviceKind;
 use criterion::{Criterion, criterion_group, criterion_main};
 use fieldprobe_core::data::Silhouette;
 use fieldprobe_core::geometry::{Camera, PixelPos};
-use fieldprobe_core::probe::{AssignmentPolicy, Probe, RaySet, assign_all_pairs, assign_binned};
+use fieldprobe_core::probe::{
+    AssignmentPolicy, Probe, RaySet, assign_all_pairs, assign_binned, assign_on_device,
+};
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -62,6 +70,28 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("binned", |b| b.iter(|| assign_binned(probe)));
     g.bench_function("all_pairs", |b| b.iter(|| assign_all_pairs(probe)));
+    g.finish();
+
+    let one_view = RaySet {
+        views: rays.views[..1024].to_vec(),
+        pixels: rays.pixels[..1024].to_vec(),
+        labels: rays.labels[..1024].to_vec(),
+    };
+    let small = Probe {
+        rays: &one_view,
+        ..probe
+    };
+    let mut devices = vec![("device_flex", Device::flex())];
+    if std::env::var_os("FIELDPROBE_BENCH_WGPU").is_some() {
+        devices.push(("device_wgpu", Device::wgpu(DeviceKind::DefaultDevice)));
+    }
+    let mut g = c.benchmark_group("assign_1024_rays_16000_anchors");
+    g.sample_size(10);
+    g.bench_function("binned", |b| b.iter(|| assign_binned(small)));
+    for (name, device) in devices {
+        assert_eq!(assign_on_device(small, &device), assign_binned(small));
+        g.bench_function(name, |b| b.iter(|| assign_on_device(small, &device)));
+    }
     g.finish();
 }
 

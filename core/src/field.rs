@@ -25,7 +25,7 @@ use std::fmt::Debug;
 use std::path::Path;
 
 use burn::module::Module;
-use burn::optim::{GradientsParams, ModuleOptimizer};
+use burn::optim::{GradientsParams, ModuleOptimizer, MultiGradientsParams};
 use burn::prelude::*;
 use burn::tensor::Gradients;
 use burn::tensor::activation::sigmoid;
@@ -74,6 +74,20 @@ pub trait FieldModel: Field {
     fn valid_model(&self) -> Box<dyn FieldModel>;
     /// One optimizer step with the gradients of a loss computed through this model.
     fn optimize(&mut self, optim: &mut ModuleOptimizer, lr: f64, grads: Gradients);
+    /// A replica on `device` for data-parallel training (burn's `Module::fork`: the same
+    /// parameter ids, its own autodiff graph).
+    fn fork_to(&self, device: &Device) -> Box<dyn FieldModel>;
+    /// The gradients of a loss computed through this model (a replica), by parameter id.
+    fn gradients(&self, grads: Gradients) -> GradientsParams;
+    /// One optimizer step with the replicas' gradients, summed per parameter
+    /// (`ModuleOptimizer::step_multi`); the updated model is then moved to `device`.
+    fn optimize_multi(
+        &mut self,
+        optim: &mut ModuleOptimizer,
+        lr: f64,
+        grads: MultiGradientsParams,
+        device: &Device,
+    );
     /// Writes the weights to `path` (burn's `.bpk`).
     fn save_weights(&self, path: &Path) -> Result<(), String>;
     /// Replaces the weights by those at `path`; fails if they do not fit this model's shapes.
@@ -99,6 +113,25 @@ impl<M: Module + Field + 'static> FieldModel for M {
     fn optimize(&mut self, optim: &mut ModuleOptimizer, lr: f64, grads: Gradients) {
         let grads = GradientsParams::from_grads(grads, self);
         *self = optim.step(lr, self.clone(), grads);
+    }
+
+    fn fork_to(&self, device: &Device) -> Box<dyn FieldModel> {
+        Box::new(self.clone().fork(device))
+    }
+
+    fn gradients(&self, grads: Gradients) -> GradientsParams {
+        GradientsParams::from_grads(grads, self)
+    }
+
+    fn optimize_multi(
+        &mut self,
+        optim: &mut ModuleOptimizer,
+        lr: f64,
+        grads: MultiGradientsParams,
+        device: &Device,
+    ) {
+        // step_multi leaves each parameter on the device its gradients were summed on.
+        *self = optim.step_multi(lr, self.clone(), grads).fork(device);
     }
 
     fn save_weights(&self, path: &Path) -> Result<(), String> {

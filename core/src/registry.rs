@@ -18,6 +18,8 @@ pub enum ComponentKind {
     AnchorSampler,
     /// `[probe.aggregator]`
     Aggregator,
+    /// `[probe.march]` (dense ray marching instead of anchors)
+    RayMarcher,
     /// `[regularizers.<name>]` (any number, each under a name of your choice)
     Regularizer,
 }
@@ -30,6 +32,7 @@ impl ComponentKind {
             ComponentKind::RaySampler => "probe.ray_sampler",
             ComponentKind::AnchorSampler => "probe.anchor_sampler",
             ComponentKind::Aggregator => "probe.aggregator",
+            ComponentKind::RayMarcher => "probe.march",
             ComponentKind::Regularizer => "regularizers.<name>",
         }
     }

@@ -6,7 +6,7 @@
 //! on the prefetch worker unless `train.prefetch = 0`), the time the training loop waited for it,
 //! and the device work (forward, backward, Adam; `device.sync()` before the clock is read). A
 //! step is the wait plus the device work. Reported: median step time, the share of it spent
-//! waiting for probes, decoder points evaluated per second (anchors per step /
+//! waiting for probes, decoder points evaluated per second (points the rays read per step /
 //! device time), ray–anchor pairs decided per second (rays × anchors per step / probe time: the
 //! pairs the all-pairs reference would test) and pairs assigned per step.
 //!
@@ -91,32 +91,38 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let objects: Vec<_> = data.iter().flat_map(|c| c.train.iter().cloned()).collect();
     let selected = exp.backend.select()?;
     let comps = || {
-        exp.components()
+        exp.components_on(&selected.device)
             .map_err(|e| anyhow::anyhow!("{}: {e}", args.file.display()))
     };
     let spec = exp.probe.spec;
-    let with = time_steps(&exp, &comps()?, &objects, &selected.device, &args)?;
+    let devices = selected.devices(exp.train.devices)?;
+    let with = time_steps(&exp, &comps()?, &objects, &devices, &args)?;
     let (points, pairs) = (with.last.points, with.last.pairs);
     let decided = with.last.rays as u64 * spec.anchors as u64;
     let (st, pr, dv) = (with.step, with.probe, with.device);
     println!(
-        "| experiment | backend | batch | anchors/object | rays/step | prefetch | median step (s) | probe (s) | waiting for probes | device (s) | decoder points/s | pairs decided/s | pairs assigned/step |"
+        "| experiment | backend | batch | points read/object | rays/step | prefetch | median step (s) | probe (s) | waiting for probes | device (s) | decoder points/s | pairs decided/s | pairs assigned/step |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     println!(
-        "| {} | {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.1} % | {:.4} | {:.3e} | {:.3e} | {} |",
+        "| {} | {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.1} % | {:.4} | {:.3e} | {} | {} |",
         exp.name,
         selected.description,
         exp.train.batch,
-        spec.anchors,
-        decided / spec.anchors as u64,
+        points / exp.train.batch.max(1),
+        with.last.rays,
         exp.train.prefetch,
         st,
         pr,
         100.0 * with.wait / with.mean,
         dv,
         points as f64 / dv,
-        decided as f64 / pr,
+        // Dense marching decides no ray–anchor pairs: every point is on its ray.
+        if exp.probe.march.is_some() {
+            "–".to_string()
+        } else {
+            format!("{:.3e}", decided as f64 / pr)
+        },
         pairs
     );
     let plain = if exp.regularizers.is_empty() {
@@ -124,7 +130,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     } else {
         let mut bare = comps()?;
         bare.regularizers.clear();
-        time_steps(&exp, &bare, &objects, &selected.device, &args)?
+        time_steps(&exp, &bare, &objects, &devices, &args)?
     };
     let gflops = exp
         .model
@@ -163,15 +169,16 @@ struct Timings {
 }
 
 /// Times `args.steps` training steps (after `args.warmup` untimed ones) of a fresh model with
-/// the experiment's seed, through the run's own loop.
+/// the experiment's seed, through the run's own loop (on `train.devices` devices).
 fn time_steps(
     exp: &Experiment,
     comps: &Components,
     objects: &[ObjectViews],
-    device: &Device,
+    devices: &[Device],
     args: &BenchArgs,
 ) -> Result<Timings> {
-    let mut trainer = Trainer::new(exp.model.as_ref(), device, exp.seed);
+    let mut trainer =
+        Trainer::new(exp.model.as_ref(), &devices[0], exp.seed).data_parallel(devices);
     let schedule = TrainSpec {
         steps: args.warmup + args.steps,
         checkpoint_every: 0,

@@ -49,6 +49,9 @@ pub struct LineChart {
     pub y_label: String,
     /// Logarithmic y, used when every value is positive and they span more than a decade.
     pub log_y: bool,
+    /// A dot at every point (for short series: a budget sweep's few runs, where the points are
+    /// the data and the lines only join them).
+    pub markers: bool,
     pub series: Vec<Series>,
 }
 
@@ -148,7 +151,13 @@ impl LineChart {
                 .copied()
                 .filter(|p| p.0.is_finite() && p.1.is_finite());
             chart
-                .draw_series(LineSeries::new(points, color.stroke_width(2)))
+                .draw_series(
+                    LineSeries::new(points, color.stroke_width(2)).point_size(if self.markers {
+                        4
+                    } else {
+                        0
+                    }),
+                )
                 .map_err(err)?
                 .label(&s.label)
                 .legend(move |(x, y)| {
@@ -240,6 +249,7 @@ pub fn loss_terms(history: &[(usize, f32)], terms: &[(usize, f32, f32)]) -> Line
         x_label: "training step".into(),
         y_label: "loss, mean per logged interval".into(),
         log_y: true,
+        markers: false,
         series,
     }
 }

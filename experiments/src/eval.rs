@@ -50,13 +50,14 @@ pub fn run(args: Args) -> Result<()> {
     info!("backend: {}", selected.description);
     let model = rd.model(&selected.device)?;
     // Training time comes from the run's own metrics, when it has them.
-    let seconds = std::fs::read_to_string(rd.dir.join("metrics.json"))
+    let (seconds, decoder_points) = std::fs::read_to_string(rd.dir.join("metrics.json"))
         .ok()
         .and_then(|t| serde_json::from_str::<Metrics>(&t).ok())
-        .map_or(0.0, |m| m.train_seconds);
+        .map_or((0.0, 0), |m| (m.train_seconds, m.train_decoder_points));
     let training = Training {
         steps: rd.state.step,
         seconds,
+        decoder_points,
         history: rd.state.history.clone(),
         terms: rd.state.terms.clone(),
     };

@@ -22,6 +22,9 @@
 //! assignment = "naive"       # or "boundary_aware"
 //! ray_sampler = { type = "uniform" }
 //! anchor_sampler = { type = "uniform" }
+//! # aggregator = { type = "max" }                  # the default (paper eq. 1)
+//! # march = { type = "stratified", samples = 32 }  # dense ray marching instead of anchors
+//! # assign_on = "device"                           # assignment on the GPU instead of the CPU
 //!
 //! [train]
 //! steps = 1000
@@ -38,7 +41,7 @@ use fieldprobe_core::eval::occupancy::{MaxPoolPath, VoxelProtocol};
 use fieldprobe_core::extract::ExtractOptions;
 use fieldprobe_core::field::FieldModelConfig;
 use fieldprobe_core::probe::{
-    AggregatorConfig, AnchorSamplerConfig, MaxPool, ProbeSpec, RaySamplerConfig,
+    AggregatorConfig, AnchorSamplerConfig, MaxPool, ProbeSpec, RayMarcherConfig, RaySamplerConfig,
 };
 use fieldprobe_core::regularize::RegularizerConfig;
 use fieldprobe_core::train::{Components, TrainSpec};
@@ -138,6 +141,32 @@ pub struct ProbeConfig {
     pub ray_sampler: Box<dyn RaySamplerConfig>,
     pub anchor_sampler: Box<dyn AnchorSamplerConfig>,
     pub aggregator: Box<dyn AggregatorConfig>,
+    /// Dense ray marching instead of field probing (`march = { type = "stratified", samples =
+    /// 32 }`): the baseline the paper compares against. `probe.anchors` and the anchor sampler
+    /// then give only the points regularizers see; `radius` and `assignment` are the probing's
+    /// and are not read.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub march: Option<Box<dyn RayMarcherConfig>>,
+    /// Where the ray–anchor assignment runs: `"cpu"` (default: binned, on the prefetch worker)
+    /// or `"device"` (tensor kernels on the training device, the same pairs; for GPU runs,
+    /// where the CPU's assignment costs more than the step).
+    #[serde(default, skip_serializing_if = "AssignOn::is_cpu")]
+    pub assign_on: AssignOn,
+}
+
+/// `probe.assign_on`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AssignOn {
+    #[default]
+    Cpu,
+    Device,
+}
+
+impl AssignOn {
+    fn is_cpu(&self) -> bool {
+        *self == Self::Cpu
+    }
 }
 
 impl TryFrom<toml::Table> for ProbeConfig {
@@ -159,6 +188,8 @@ impl TryFrom<toml::Table> for ProbeConfig {
         let anchor_sampler =
             component(&mut table, "anchor_sampler")?.ok_or_else(|| missing("anchor_sampler"))?;
         let aggregator = component(&mut table, "aggregator")?.unwrap_or_else(max_pool);
+        let march = component(&mut table, "march")?;
+        let assign_on = component(&mut table, "assign_on")?.unwrap_or_default();
         let spec = toml::Value::Table(table)
             .try_into()
             .map_err(|e| format!("probe: {e}"))?;
@@ -167,6 +198,8 @@ impl TryFrom<toml::Table> for ProbeConfig {
             ray_sampler,
             anchor_sampler,
             aggregator,
+            march,
+            assign_on,
         })
     }
 }
@@ -392,6 +425,19 @@ impl Experiment {
         Ok(())
     }
 
+    /// [`components`](Self::components) for training on `device`: with `probe.assign_on =
+    /// "device"`, assignment runs there.
+    pub fn components_on(
+        &self,
+        device: &burn::prelude::Device,
+    ) -> std::result::Result<Components, String> {
+        let mut comps = self.components()?;
+        if self.probe.assign_on == AssignOn::Device {
+            comps.assign_device = Some(device.clone());
+        }
+        Ok(comps)
+    }
+
     /// Builds the pluggable components (validating their settings).
     pub fn components(&self) -> std::result::Result<Components, String> {
         let regularizers = self
@@ -415,6 +461,13 @@ impl Experiment {
                 .aggregator
                 .build()
                 .map_err(|e| format!("probe.aggregator: {e}"))?,
+            march: self
+                .probe
+                .march
+                .as_ref()
+                .map(|m| m.build().map_err(|e| format!("probe.march: {e}")))
+                .transpose()?,
+            assign_device: None,
             regularizers,
         })
     }

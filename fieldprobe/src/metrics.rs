@@ -37,6 +37,12 @@ pub struct Metrics {
     pub maxpool: MaxPoolPath,
     pub steps: usize,
     pub train_seconds: f64,
+    /// Field evaluations of the silhouette term over the training steps of this process (the
+    /// points the rays read, per step `batch × points per object`; regularizer stencils not
+    /// counted): the cost measure that compares probing with dense marching. Like
+    /// `train_seconds`, a resumed run counts only the steps it took itself.
+    #[serde(default)]
+    pub train_decoder_points: u64,
     pub eval_seconds: f64,
     pub final_loss: Option<f32>,
     /// The silhouette and regularizer terms of the last logged interval (means).
@@ -62,6 +68,8 @@ pub fn mean_of(
 pub struct Training {
     pub steps: usize,
     pub seconds: f64,
+    /// Field evaluations of the silhouette term (see [`Metrics::train_decoder_points`]).
+    pub decoder_points: u64,
     /// `(step, mean loss of the interval)`.
     pub history: Vec<(usize, f32)>,
     /// `(step, mean silhouette term, mean regularizer term)` of the same intervals.

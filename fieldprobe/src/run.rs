@@ -112,14 +112,23 @@ pub fn run_one(
     let selected = exp.backend.select()?;
     info!("backend: {}", selected.description);
     let comps = exp
-        .components()
+        .components_on(&selected.device)
         .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
 
     write_input_spec(dir, data)?;
-    let (trainer, train_seconds) = train(exp, data, &comps, &selected.device, &ckpt, resume)?;
+    let devices = selected.devices(exp.train.devices)?;
+    if devices.len() > 1 {
+        info!(
+            "data-parallel training over {} devices: {devices:?}",
+            devices.len()
+        );
+    }
+    let (trainer, train_seconds, decoder_points) =
+        train(exp, data, &comps, &devices, &ckpt, resume)?;
     let training = Training {
         steps: trainer.step,
         seconds: train_seconds,
+        decoder_points,
         history: trainer.history.clone(),
         terms: trainer.terms.clone(),
     };
@@ -210,6 +219,7 @@ pub fn evaluate_run(
         maxpool: exp.eval.maxpool,
         steps: training.steps,
         train_seconds: training.seconds,
+        train_decoder_points: training.decoder_points,
         eval_seconds,
         final_loss: training.history.last().map(|h| h.1),
         final_silhouette_loss: training.terms.last().map(|t| t.1),
@@ -259,16 +269,18 @@ pub fn start_weights(exp: &Experiment, model: &mut dyn FieldModel) -> Result<()>
     Ok(())
 }
 
-/// Trains (or resumes) to `exp.train.steps`, checkpointing atomically; returns the trainer and the
-/// seconds spent in this process.
+/// Trains (or resumes) to `exp.train.steps` on `devices` (data-parallel when there are several;
+/// the model lives on the first), checkpointing atomically; returns the trainer, the
+/// seconds spent in this process and the decoder evaluations of its steps' silhouette terms.
 fn train(
     exp: &Experiment,
     data: &[CategoryData],
     comps: &Components,
-    device: &burn::prelude::Device,
+    devices: &[burn::prelude::Device],
     ckpt: &Path,
     resume: bool,
-) -> Result<(Trainer, f64)> {
+) -> Result<(Trainer, f64, u64)> {
+    let device = &devices[0];
     let resume = resume && {
         let found = checkpoint::latest(ckpt)?.is_some();
         if !found {
@@ -279,7 +291,7 @@ fn train(
         }
         found
     };
-    let mut trainer = if resume {
+    let trainer = if resume {
         let t = checkpoint::load(exp.model.as_ref(), device, ckpt)?;
         info!("resumed from {} at step {}", ckpt.display(), t.step);
         t
@@ -288,6 +300,7 @@ fn train(
         start_weights(exp, t.model.as_mut())?;
         t
     };
+    let mut trainer = trainer.data_parallel(devices);
     let objects = pool(data);
     let run = TrainRun {
         objects: &objects,
@@ -304,7 +317,9 @@ fn train(
     let mut history_error = None;
     let bar = progress::bar("train", exp.train.steps, trainer.step);
     let t0 = Instant::now();
+    let mut points = 0u64;
     let mut show = |t: &Trainer, s: &StepStats| {
+        points += s.points as u64;
         bar.set(t.step, format!("loss {:.4}", s.loss));
         if history_error.is_none()
             && let Err(e) = history.record(t, exp.train.lr_at(t.step.saturating_sub(1)))
@@ -318,5 +333,5 @@ fn train(
         anyhow::anyhow!("{e} (checkpoints: {})", ckpt.display())
     })?;
     bar.finish();
-    Ok((trainer, t0.elapsed().as_secs_f64()))
+    Ok((trainer, t0.elapsed().as_secs_f64(), points))
 }

@@ -2,7 +2,9 @@
 //! configs reject misspelled keys and unknown types.
 
 use fieldprobe_core::field::FieldModelConfig;
-use fieldprobe_core::probe::{AggregatorConfig, AnchorSamplerConfig, RaySamplerConfig};
+use fieldprobe_core::probe::{
+    AggregatorConfig, AnchorSamplerConfig, RayMarcherConfig, RaySamplerConfig,
+};
 use fieldprobe_core::registry::{ComponentKind, components};
 use fieldprobe_core::regularize::RegularizerConfig;
 // The link list: registration only sees crates that are linked.
@@ -32,6 +34,10 @@ fn build(kind: ComponentKind, text: &str) -> Result<(), String> {
             .map_err(e)?
             .build()
             .map(|_| ()),
+        ComponentKind::RayMarcher => toml::from_str::<Box<dyn RayMarcherConfig>>(text)
+            .map_err(e)?
+            .build()
+            .map(|_| ()),
         ComponentKind::Regularizer => toml::from_str::<Box<dyn RegularizerConfig>>(text)
             .map_err(e)?
             .build()
@@ -52,6 +58,9 @@ fn every_registered_component_builds_from_its_example() {
         (ComponentKind::Representation, "per_object"),
         (ComponentKind::Representation, "sdf"),
         (ComponentKind::Aggregator, "max"),
+        (ComponentKind::Aggregator, "composite"),
+        (ComponentKind::RayMarcher, "fixed"),
+        (ComponentKind::RayMarcher, "stratified"),
         (ComponentKind::Regularizer, "normal_consistency"),
         (ComponentKind::Regularizer, "eikonal"),
     ] {

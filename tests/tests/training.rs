@@ -13,7 +13,7 @@ use fieldprobe_core::data::voxelize::Voxelizer;
 use fieldprobe_core::field::FieldModelConfig;
 use fieldprobe_core::object::ObjectViews;
 use fieldprobe_core::probe::{
-    AssignmentPolicy, MaxPool, ObjectProbe, ProbeBatch, ProbeSpec, SoftMax,
+    AssignmentPolicy, Composite, MaxPool, ObjectProbe, ProbeBatch, ProbeSpec, SoftMax,
 };
 use fieldprobe_core::regularize::Regularizer;
 use fieldprobe_core::train::{
@@ -24,7 +24,7 @@ use fieldprobe_models::{
     DecoderConfig, EncoderConfig, PerObjectConfig, SdfConfig, SingleViewConfig,
 };
 use fieldprobe_regularizers::{Eikonal, NormalConsistency};
-use fieldprobe_samplers::{UniformAnchors, UniformRays};
+use fieldprobe_samplers::{StratifiedDepths, UniformAnchors, UniformRays};
 
 /// burn's flex RNG is process-wide: tests that seed it must not interleave.
 static SEEDED: Mutex<()> = Mutex::new(());
@@ -81,6 +81,8 @@ fn comps() -> Components {
         ray_sampler: Box::new(UniformRays {}),
         anchor_sampler: Box::new(UniformAnchors::default()),
         aggregator: Box::new(MaxPool {}),
+        march: None,
+        assign_device: None,
         regularizers: Vec::new(),
     }
 }
@@ -138,6 +140,7 @@ fn schedule(steps: usize, checkpoint_every: usize) -> TrainSpec {
         checkpoint_every,
         init_from: None,
         prefetch: 2,
+        devices: 1,
     }
 }
 
@@ -320,6 +323,209 @@ fn soft_max_aggregation_learns_from_silhouettes() {
     };
     let losses = train_with(&per_object(), &c, &dev, &data, 60);
     falls(&losses);
+}
+
+/// Dense ray marching (the baseline of the efficiency comparison) through the same batches and
+/// loss: each ray reads exactly its own samples, on the ray inside the cube, objects with fewer
+/// samples (rays that miss the cube) are padded with points no ray reads, the silhouette loss
+/// equals a plain per-ray compositing in f64, regularizers get the anchors a probing step of
+/// the same seed draws, and a field learns from it.
+#[test]
+fn dense_marching_reads_each_rays_own_samples_and_learns() {
+    let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
+    let data = objects(2);
+    let samples = 8;
+    let c = Components {
+        aggregator: Box::new(Composite {}),
+        march: Some(Box::new(StratifiedDepths { samples })),
+        ..comps()
+    };
+    let marcher = c.march.as_deref().unwrap();
+    let probes: Vec<ObjectProbe> = data
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let (rays, anchors) = (c.ray_sampler.as_ref(), c.anchor_sampler.as_ref());
+            let m = ObjectProbe::march(
+                &o.supervision,
+                &SPEC,
+                rays,
+                anchors,
+                marcher,
+                &mut step_rng(3, 0, i),
+            );
+            let p =
+                ObjectProbe::sample(&o.supervision, &SPEC, rays, anchors, &mut step_rng(3, 0, i));
+            assert_eq!(m.sampled, p.anchors, "regularizers see probing's anchors");
+            assert_eq!(m.rays, p.rays, "and the rays are probing's");
+            m
+        })
+        .collect();
+    assert!(
+        probes
+            .iter()
+            .any(|p| p.anchors.len() < p.rays.len() * samples),
+        "some uniform rays miss the cube"
+    );
+    let dev = BackendChoice::Flex.select().unwrap().device;
+    let t = Trainer::new(&per_object(), &dev, 4);
+    for compact in [false, true] {
+        let b = ProbeBatch::assemble(&probes, compact);
+        let kept = b.anchors_per_object;
+        assert_eq!(kept, probes.iter().map(|p| p.anchors.len()).max().unwrap());
+        assert_eq!(b.width, samples);
+        let mut first = 0;
+        for (o, p) in probes.iter().enumerate() {
+            let sup = &data[o].supervision;
+            for r in 0..p.rays.len() {
+                let ray = sup.cameras[p.rays.views[r] as usize].ray(p.rays.pixels[r]);
+                let row = first + r;
+                let read: Vec<usize> = (0..b.width)
+                    .filter(|&k| b.valid[row * b.width + k])
+                    .map(|k| b.index[row * b.width + k] as usize)
+                    .collect();
+                assert!(read.len() == samples || read.is_empty());
+                for (k, &i) in read.iter().enumerate() {
+                    assert!(
+                        i >= o * kept && i < o * kept + p.anchors.len(),
+                        "own object, not padding"
+                    );
+                    let q = glam::Vec3::from_slice(&b.anchors[3 * i..3 * i + 3]);
+                    let depth = b.depth[row * b.width + k];
+                    assert!((ray.at(depth) - q).length() < 1e-5);
+                    assert!(q.abs().max_element() <= 0.5 + 1e-5);
+                }
+            }
+            first += p.rays.len();
+        }
+        // The loss against the plain formulation: φ at every sample, composited per ray.
+        let prepared = PreparedStep {
+            batch: b.clone(),
+            images: None,
+            probe_seconds: 0.0,
+            step: 0,
+        };
+        let (_, sil, _) = probe_loss(t.model.as_ref(), &prepared, &c, &t.device);
+        let sil: f32 = sil.into_scalar();
+        let pts = burn::tensor::Tensor::<3>::from_data(
+            burn::tensor::TensorData::new(b.anchors.clone(), [b.objects, kept, 3]),
+            &t.device,
+        );
+        let phi: Vec<f32> = t
+            .model
+            .occupancy(None, pts)
+            .try_into_vec_as::<f32>()
+            .unwrap();
+        let mut sq = 0.0f64;
+        for r in 0..b.rays {
+            let transmittance: f64 = (0..b.width)
+                .filter(|&k| b.valid[r * b.width + k])
+                .map(|k| 1.0 - f64::from(phi[b.index[r * b.width + k] as usize]))
+                .product();
+            sq += (1.0 - transmittance - f64::from(b.labels[r])).powi(2);
+        }
+        let want = sq / b.rays as f64 * SPEC.views as f64;
+        assert!(
+            (f64::from(sil) - want).abs() < 1e-4 * want.max(1e-3),
+            "{sil} vs {want}"
+        );
+    }
+    falls(&train_with(&per_object(), &c, &dev, &data[..1], 60));
+}
+
+/// Trains `steps` steps of batch 4 with the normal-consistency term uncapped on `devices`
+/// (data-parallel when several); returns every step's loss and the final φ at fixed points.
+fn train_on(devices: &[Device], steps: usize) -> (Vec<f32>, Vec<f32>) {
+    let data = objects(1);
+    let c = Components {
+        regularizers: vec![Box::new(NormalConsistency {
+            epsilon: 0.45,
+            max_anchors: 0,
+            ..NormalConsistency::default()
+        })],
+        ..comps()
+    };
+    let mut t = Trainer::new(&per_object(), &devices[0], 5).data_parallel(devices);
+    let schedule = TrainSpec {
+        batch: 4,
+        devices: devices.len(),
+        ..schedule(steps, 0)
+    };
+    let run = TrainRun {
+        objects: &data,
+        comps: &c,
+        probe: &SPEC,
+        schedule: &schedule,
+        uses_image: false,
+        seed: 5,
+    };
+    let mut losses = Vec::new();
+    let mut regs = 0.0;
+    t.fit(&run, None, &mut |_: &Trainer, s: &StepStats| {
+        losses.push(s.loss);
+        regs += s.regularizer_loss;
+    })
+    .unwrap();
+    assert!(regs > 0.0, "the regularizer acted");
+    let probe = burn::tensor::Tensor::<3>::from_data(
+        burn::tensor::TensorData::new(
+            (0..96)
+                .map(|i| (i as f32 * 0.37).sin() * 0.45)
+                .collect::<Vec<f32>>(),
+            [1, 32, 3],
+        ),
+        &t.device,
+    );
+    let phi = t
+        .model
+        .occupancy(None, probe)
+        .try_into_vec_as::<f32>()
+        .unwrap();
+    (losses, phi)
+}
+
+/// Data-parallel training (the batch split over devices, replicas' gradients summed by burn's
+/// `step_multi`) takes the single-device steps up to float summation order: the same losses at
+/// every step and the same field after them, with the (uncapped) regularizer. Two replicas on
+/// flex's one CPU device, the case every machine has; and, where a Vulkan driver exists, the
+/// CPU and a wgpu device as the two devices (different memories, gradients moved between them).
+#[test]
+fn data_parallel_training_matches_one_device() {
+    let _g = SEEDED.lock().unwrap_or_else(|p| p.into_inner());
+    let flex = BackendChoice::Flex.select().unwrap().device;
+    let close = |a: &[f32], b: &[f32], what: &str| {
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(b) {
+            assert!(
+                (x - y).abs() <= 1e-4 * x.abs().max(1e-2),
+                "{what}: {a:?} vs {b:?}"
+            );
+        }
+    };
+    let (one, phi_one) = train_on(std::slice::from_ref(&flex), 8);
+    let (two, phi_two) = train_on(&[flex.clone(), flex.clone()], 8);
+    close(&one, &two, "losses, two replicas on flex");
+    close(&phi_one, &phi_two, "φ after training, two replicas on flex");
+    assert!(one.iter().all(|l| l.is_finite()));
+
+    let name = "data_parallel_training_matches_one_device (flex + wgpu)";
+    let Some(gpu) = testing::wgpu_or_skip(name) else {
+        return;
+    };
+    // Fewer steps (each wgpu kernel is compiled on first use) and a looser bound on φ: the two
+    // backends round differently, and the Adam steps carry that into the weights.
+    let (short, phi_short) = train_on(std::slice::from_ref(&flex), 3);
+    let (mixed, phi_mixed) =
+        testing::with_deadline(name, testing::DEVICE_TEST_DEADLINE, move || {
+            train_on(&[flex, gpu], 3)
+        });
+    close(&short, &mixed, "losses, flex + wgpu");
+    for (x, y) in phi_short.iter().zip(&phi_mixed) {
+        assert!(
+            (x - y).abs() < 1e-3,
+            "φ, flex + wgpu: {phi_short:?} vs {phi_mixed:?}"
+        );
+    }
 }
 
 /// On wgpu: skipped with a line saying what to install where there is no Vulkan driver, and

@@ -12,8 +12,16 @@
 //!   a point `q` of the sphere has depth `≥ z − τ`, so its projection lies within
 //!   `f·τ/(z − τ)·(1 + |s_xy|/z)` pixels of the centre's (`f` the focal length in pixels).
 //!
+//! * [`assign_on_device`] — all pairs with burn tensor kernels on the training device (for GPU
+//!   runs; `probe.assign_on = "device"`), identical pairs on a backend that rounds every
+//!   operation.
+//!
 //! Pairs can further be filtered by an [`AssignmentPolicy`]: the paper's boundary-aware rule drops
 //! anchors whose silhouette evidence contradicts the ray's label.
+
+pub mod device;
+
+pub use device::assign_on_device;
 
 use glam::Vec3;
 use rayon::prelude::*;

@@ -11,9 +11,11 @@ use rand::RngCore;
 use rand::seq::index::sample;
 use serde::{Deserialize, Serialize};
 
-use super::assign::{Assignment, AssignmentPolicy, Probe, RaySet, assign_binned};
+use super::assign::{Assignment, AssignmentPolicy, Probe, RaySet, assign_binned, assign_on_device};
+use super::march::{RayMarcher, march_rays};
 use super::sampler::{AnchorSampler, RaySampler, Supervision};
 use crate::geometry::NUM_VIEWS;
+use burn::prelude::Device;
 
 /// How many anchors and rays to probe per object, and how: the numeric keys of an experiment's
 /// `[probe]` table (its components, the samplers and the aggregator, sit beside them there).
@@ -66,7 +68,12 @@ impl ProbeSpec {
 /// One object's probe: anchors, rays and their assignment.
 #[derive(Clone, Debug)]
 pub struct ObjectProbe {
+    /// The points the rays read: the anchors (field probing) or the samples along each ray
+    /// (dense marching, [`ObjectProbe::march`]).
     pub anchors: Vec<Vec3>,
+    /// What regularizers see: every point the anchor sampler drew, whether a ray meets it or not
+    /// (for field probing, `anchors` itself).
+    pub sampled: Vec<Vec3>,
     pub rays: RaySet,
     pub assignment: Assignment,
     /// Per assigned pair (aligned with `assignment.anchors`): the anchor's depth along the ray
@@ -76,7 +83,7 @@ pub struct ObjectProbe {
 }
 
 impl ObjectProbe {
-    /// Samples anchors and rays for `object` and assigns them.
+    /// Samples anchors and rays for `object` and assigns them (binned, on the CPU).
     pub fn sample(
         object: &Supervision,
         spec: &ProbeSpec,
@@ -84,27 +91,36 @@ impl ObjectProbe {
         anchors: &dyn AnchorSampler,
         rng: &mut dyn RngCore,
     ) -> Self {
+        Self::sample_on(object, spec, rays, anchors, None, rng)
+    }
+
+    /// [`sample`](Self::sample) with the assignment on `device` when one is given
+    /// ([`assign_on_device`]: the same pairs), else binned on the CPU.
+    pub fn sample_on(
+        object: &Supervision,
+        spec: &ProbeSpec,
+        rays: &dyn RaySampler,
+        anchors: &dyn AnchorSampler,
+        device: Option<&Device>,
+        rng: &mut dyn RngCore,
+    ) -> Self {
         let anchor_points = anchors.sample_anchors(object, spec.anchors, rng);
-        let n_views = object.cameras.len();
-        let views = sample(rng, n_views, spec.views.min(n_views)).into_vec();
-        let mut set = RaySet::default();
-        for v in views {
-            for px in rays.sample_pixels(object, v, spec.rays_per_view, rng) {
-                set.views.push(v as u16);
-                set.labels.push(object.silhouettes[v].bilinear(px));
-                set.pixels.push(px);
-            }
-        }
-        let assignment = assign_binned(Probe {
+        let set = sample_rays(object, spec, rays, rng);
+        let probe = Probe {
             cameras: &object.cameras,
             silhouettes: &object.silhouettes,
             anchors: &anchor_points,
             rays: &set,
             radius: spec.radius,
             policy: spec.assignment,
-        });
+        };
+        let assignment = match device {
+            Some(d) => assign_on_device(probe, d),
+            None => assign_binned(probe),
+        };
         let (pair_depth, pair_distance) = pair_geometry(object, &anchor_points, &set, &assignment);
         Self {
+            sampled: anchor_points.clone(),
             anchors: anchor_points,
             rays: set,
             assignment,
@@ -112,6 +128,52 @@ impl ObjectProbe {
             pair_distance,
         }
     }
+
+    /// The dense ray-marching baseline ([`super::march`]): the same anchors (for regularizers)
+    /// and rays as [`sample`](Self::sample) draws from the same RNG, but each ray reads the
+    /// field at its own `S` depths inside the cube instead of at the anchors its support
+    /// spheres meet.
+    pub fn march(
+        object: &Supervision,
+        spec: &ProbeSpec,
+        rays: &dyn RaySampler,
+        anchors: &dyn AnchorSampler,
+        marcher: &dyn RayMarcher,
+        rng: &mut dyn RngCore,
+    ) -> Self {
+        let sampled = anchors.sample_anchors(object, spec.anchors, rng);
+        let set = sample_rays(object, spec, rays, rng);
+        let marched = march_rays(object, &set, marcher, rng);
+        Self {
+            pair_distance: vec![0.0; marched.depth.len()],
+            pair_depth: marched.depth,
+            anchors: marched.points,
+            sampled,
+            rays: set,
+            assignment: marched.assignment,
+        }
+    }
+}
+
+/// `spec.views` distinct views of the object, `spec.rays_per_view` rays in each (labels: the
+/// bilinear silhouette at the pixel).
+fn sample_rays(
+    object: &Supervision,
+    spec: &ProbeSpec,
+    rays: &dyn RaySampler,
+    rng: &mut dyn RngCore,
+) -> RaySet {
+    let n_views = object.cameras.len();
+    let views = sample(rng, n_views, spec.views.min(n_views)).into_vec();
+    let mut set = RaySet::default();
+    for v in views {
+        for px in rays.sample_pixels(object, v, spec.rays_per_view, rng) {
+            set.views.push(v as u16);
+            set.labels.push(object.silhouettes[v].bilinear(px));
+            set.pixels.push(px);
+        }
+    }
+    set
 }
 
 /// Depth along the ray and distance from its line of every assigned pair.
@@ -178,7 +240,9 @@ fn distinct_views(views: &[u16]) -> usize {
 }
 
 impl ProbeBatch {
-    /// Concatenates object probes (all with the same number of anchors).
+    /// Concatenates object probes (all with the same number of sampled anchors; the points the
+    /// rays read may differ in number, as dense marching's do, and are padded with unread
+    /// points at the origin).
     ///
     /// With `compact`, each object keeps only the anchors that some ray meets (filled up, with
     /// anchors no ray meets, to the batch's largest such count so that the batch stays
@@ -188,16 +252,17 @@ impl ProbeBatch {
     /// nothing. Regularizers see every sampled anchor either way ([`ProbeBatch::sampled`]).
     /// `compact = false` is the plain reference.
     pub fn assemble(objects: &[ObjectProbe], compact: bool) -> Self {
-        let n = objects.first().map_or(0, |o| o.anchors.len());
+        let n_sampled = objects.first().map_or(0, |o| o.sampled.len());
         assert!(
-            objects.iter().all(|o| o.anchors.len() == n),
-            "equal anchor counts"
+            objects.iter().all(|o| o.sampled.len() == n_sampled),
+            "equal sampled anchor counts"
         );
         // Per object: anchors in kept order (compacted: met ones first; else as sampled) and how
         // many some ray meets.
         let orders: Vec<(Vec<u32>, usize)> = objects
             .iter()
             .map(|o| {
+                let n = o.anchors.len();
                 if !compact {
                     return ((0..n as u32).collect(), n);
                 }
@@ -212,8 +277,8 @@ impl ProbeBatch {
                 (order, used)
             })
             .collect();
-        // The batch's largest met count (all `n` when not compacting).
-        let kept = orders.iter().map(|o| o.1).max().unwrap_or(0).max(1).min(n);
+        // The batch's largest met count (all anchors when not compacting), at least 1.
+        let kept = orders.iter().map(|o| o.1).max().unwrap_or(0).max(1);
         let pad = (objects.len() * kept) as i32;
         let width = objects
             .iter()
@@ -229,12 +294,14 @@ impl ProbeBatch {
         let mut labels = Vec::with_capacity(rays);
         let mut anchors = Vec::with_capacity(objects.len() * kept * 3);
         let mut pairs = 0;
-        let mut position = vec![0i32; n];
         for (b, (o, (order, _))) in objects.iter().zip(&orders).enumerate() {
-            for (i, &a) in order[..kept].iter().enumerate() {
+            let mut position = vec![0i32; o.anchors.len()];
+            let shown = &order[..kept.min(order.len())];
+            for (i, &a) in shown.iter().enumerate() {
                 anchors.extend(o.anchors[a as usize].to_array());
                 position[a as usize] = i as i32;
             }
+            anchors.extend(std::iter::repeat_n(0.0, 3 * (kept - shown.len())));
             let base = (b * kept) as i32;
             for r in 0..o.rays.len() {
                 let hit = o.assignment.of(r);
@@ -256,13 +323,13 @@ impl ProbeBatch {
         }
         let sampled = objects
             .iter()
-            .flat_map(|o| o.anchors.iter().flat_map(|a| a.to_array()))
+            .flat_map(|o| o.sampled.iter().flat_map(|a| a.to_array()))
             .collect();
         Self {
             objects: objects.len(),
             anchors_per_object: kept,
             sampled,
-            sampled_per_object: n,
+            sampled_per_object: n_sampled,
             views_per_object: objects.first().map_or(1, |o| distinct_views(&o.rays.views)),
             anchors,
             rays,
@@ -273,6 +340,50 @@ impl ProbeBatch {
             distance,
             labels,
             pairs,
+        }
+    }
+
+    /// The objects `range` of this batch as a batch of their own (data-parallel training runs one
+    /// shard per device). Every object of a step has the same number of rays, so each shard's
+    /// rays are a contiguous block; `anchors_per_object` and `width` stay the batch's, and the
+    /// indices are moved to the shard's flat values (padding to its own `B·N`). Each shard's loss
+    /// then reads exactly the values the whole batch's does for its objects.
+    pub fn shard(&self, range: std::ops::Range<usize>) -> Self {
+        assert!(
+            range.start < range.end && range.end <= self.objects,
+            "a non-empty object range"
+        );
+        assert!(
+            self.rays.is_multiple_of(self.objects),
+            "equal rays per object"
+        );
+        let (n, s, w) = (self.anchors_per_object, self.sampled_per_object, self.width);
+        let per = self.rays / self.objects;
+        let (o0, o1) = (range.start, range.end);
+        let rays = (o0 * per)..(o1 * per);
+        let entries = (rays.start * w)..(rays.end * w);
+        let (old_pad, pad) = ((self.objects * n) as i32, ((o1 - o0) * n) as i32);
+        let base = (o0 * n) as i32;
+        let index = self.index[entries.clone()]
+            .iter()
+            .map(|&i| if i == old_pad { pad } else { i - base })
+            .collect();
+        let valid: Vec<bool> = self.valid[entries.clone()].to_vec();
+        Self {
+            objects: o1 - o0,
+            anchors_per_object: n,
+            anchors: self.anchors[o0 * n * 3..o1 * n * 3].to_vec(),
+            sampled: self.sampled[o0 * s * 3..o1 * s * 3].to_vec(),
+            sampled_per_object: s,
+            rays: rays.len(),
+            width: w,
+            index,
+            pairs: valid.iter().filter(|&&v| v).count(),
+            valid,
+            depth: self.depth[entries.clone()].to_vec(),
+            distance: self.distance[entries].to_vec(),
+            labels: self.labels[rays].to_vec(),
+            views_per_object: self.views_per_object,
         }
     }
 }

@@ -123,6 +123,7 @@ pub fn load(config: &dyn FieldModelConfig, device: &Device, dir: &Path) -> Resul
         model,
         optim,
         device,
+        replicas: Vec::new(),
         step: state.step,
         history: state.history,
         terms: state.terms,

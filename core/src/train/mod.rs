@@ -21,7 +21,7 @@ pub use fit::{TrainHooks, TrainRun};
 
 use std::time::Instant;
 
-use burn::optim::{AdamConfig, ModuleOptimizer};
+use burn::optim::{AdamConfig, ModuleOptimizer, MultiGradientsParams};
 use burn::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -32,7 +32,8 @@ use crate::field::{Field, FieldModel, FieldModelConfig};
 use crate::geometry::NUM_VIEWS;
 use crate::object::ObjectViews;
 use crate::probe::{
-    Aggregator, AnchorSampler, ObjectProbe, ProbeBatch, ProbeSpec, RaySampler, RayValues,
+    Aggregator, AnchorSampler, ObjectProbe, ProbeBatch, ProbeSpec, RayMarcher, RaySampler,
+    RayValues,
 };
 use crate::regularize::{FieldQuery, Regularizer};
 
@@ -42,6 +43,15 @@ pub struct Components {
     pub ray_sampler: Box<dyn RaySampler>,
     pub anchor_sampler: Box<dyn AnchorSampler>,
     pub aggregator: Box<dyn Aggregator>,
+    /// Dense ray marching instead of field probing: each ray reads the field at its own samples
+    /// inside the cube ([`crate::probe::march`]); the anchor sampler then draws only the points
+    /// regularizers see. `None`: the paper's probing.
+    pub march: Option<Box<dyn RayMarcher>>,
+    /// Where ray–anchor assignment runs: `None` binned on the CPU (the prefetch worker), or
+    /// tensor kernels on this device ([`crate::probe::assign_on_device`], the same pairs;
+    /// `probe.assign_on = "device"`), for GPU runs where the CPU's assignment would be the
+    /// bottleneck.
+    pub assign_device: Option<Device>,
     /// The loss terms added to the silhouette loss (the loss is their sum); none is the
     /// silhouette loss alone.
     pub regularizers: Vec<Box<dyn Regularizer>>,
@@ -78,6 +88,15 @@ pub struct TrainSpec {
     /// the same either way.
     #[serde(default = "TrainSpec::default_prefetch")]
     pub prefetch: usize,
+    /// Devices a step's batch is split over, data-parallel (default 1): the first `devices`
+    /// adapters of the backend (wgpu: GPUs; flex has one CPU device, so `devices = 2` runs two
+    /// replicas on it, which exercises the machinery but is not faster). See
+    /// [`Trainer::data_parallel`].
+    #[serde(
+        default = "TrainSpec::default_devices",
+        skip_serializing_if = "TrainSpec::is_one_device"
+    )]
+    pub devices: usize,
 }
 
 impl TrainSpec {
@@ -93,10 +112,25 @@ impl TrainSpec {
     fn default_prefetch() -> usize {
         2
     }
+    fn default_devices() -> usize {
+        1
+    }
+    /// The default is not written, so that run directories of earlier versions still match
+    /// their experiment files on `--resume`.
+    fn is_one_device(n: &usize) -> bool {
+        *n == 1
+    }
 
     pub fn validate(&self) -> Result<(), String> {
         if self.steps == 0 || self.batch == 0 {
             return Err("train.steps and train.batch must be positive".into());
+        }
+        if self.devices == 0 || self.devices > self.batch {
+            return Err(format!(
+                "train.devices must be in 1..=train.batch ({}): each device takes at least one \
+                 object of the batch, got {}",
+                self.batch, self.devices
+            ));
         }
         if !(self.lr > 0.0 && self.lr.is_finite()) {
             return Err(format!(
@@ -177,6 +211,38 @@ pub struct PreparedStep {
     pub step: usize,
 }
 
+impl PreparedStep {
+    /// The objects `range` of the step with their input images ([`ProbeBatch::shard`]).
+    pub fn shard(&self, range: std::ops::Range<usize>) -> Self {
+        let images = self.images.as_ref().map(|(px, s)| {
+            let per = 4 * s * s;
+            (px[range.start * per..range.end * per].to_vec(), *s)
+        });
+        Self {
+            batch: self.batch.shard(range),
+            images,
+            probe_seconds: self.probe_seconds,
+            step: self.step,
+        }
+    }
+}
+
+/// The objects of a batch of `b` split over `k` devices: contiguous ranges whose sizes differ by
+/// at most one (the first ones larger); devices beyond `b` get nothing.
+pub fn shard_ranges(b: usize, k: usize) -> Vec<std::ops::Range<usize>> {
+    let k = k.clamp(1, b.max(1));
+    let (q, r) = (b / k, b % k);
+    let mut start = 0;
+    (0..k)
+        .map(|i| {
+            let len = q + usize::from(i < r);
+            let range = start..start + len;
+            start += len;
+            range
+        })
+        .collect()
+}
+
 /// The RNG of step `step` for object slot `slot` under `seed`.
 pub fn step_rng(seed: u64, step: usize, slot: usize) -> ChaCha8Rng {
     let mut h = seed ^ 0x51_7c_c1_b7_27_22_0a_95;
@@ -211,13 +277,22 @@ pub fn prepare_step(
         .enumerate()
         .map(|(slot, &(obj, _))| {
             let mut rng = step_rng(seed, step, slot + 1);
-            ObjectProbe::sample(
+            let (object, rays, anchors) = (
                 &data[obj].supervision,
-                probe,
                 comps.ray_sampler.as_ref(),
                 comps.anchor_sampler.as_ref(),
-                &mut rng,
-            )
+            );
+            match &comps.march {
+                None => ObjectProbe::sample_on(
+                    object,
+                    probe,
+                    rays,
+                    anchors,
+                    comps.assign_device.as_ref(),
+                    &mut rng,
+                ),
+                Some(m) => ObjectProbe::march(object, probe, rays, anchors, m.as_ref(), &mut rng),
+            }
         })
         .collect();
     let images = uses_images.then(|| {
@@ -306,6 +381,9 @@ pub struct Trainer {
     pub optim: ModuleOptimizer,
     /// The autodiff device.
     pub device: Device,
+    /// Data-parallel training: the autodiff devices a step's batch is split over, the first
+    /// being `device` ([`Trainer::data_parallel`]). Empty: everything on `device`.
+    pub replicas: Vec<Device>,
     /// Steps done.
     pub step: usize,
     /// Mean loss per logged interval: `(step, loss)`.
@@ -333,22 +411,38 @@ impl Trainer {
             model: config.init(&device),
             optim: AdamConfig::new().init(),
             device,
+            replicas: Vec::new(),
             step: 0,
             history: Vec::new(),
             terms: Vec::new(),
         }
     }
 
-    /// One optimizer step on a prepared batch.
-    pub fn step(
-        &mut self,
-        prepared: &PreparedStep,
-        comps: &Components,
-        lr: f64,
-    ) -> Result<StepStats, TrainError> {
-        let t0 = Instant::now();
-        let (total, sil, reg) = probe_loss(self.model.as_ref(), prepared, comps, &self.device);
-        let grads = total.backward();
+    /// Splits every step's batch over `devices` (made autodiff), data-parallel: each device
+    /// runs the forward and backward pass of its share of the objects on a replica of the
+    /// model, its loss weighted by its share of the batch, and one Adam step (burn's
+    /// `step_multi`) applies the sum of the replicas' gradients, so a step is the single-device
+    /// step up to float summation order. The model stays on `devices[0]`, which should be
+    /// [`Trainer::device`]'s device. Exactly equivalent for representations without batch
+    /// statistics (batch norm in the single-view encoder normalizes each shard by its own
+    /// statistics) and for regularizers whose term is a mean over objects' points without a
+    /// per-step cap (a cap's budget is split between the shards); see README "Many devices".
+    pub fn data_parallel(mut self, devices: &[Device]) -> Self {
+        if devices.len() > 1 {
+            self.replicas = devices.iter().map(|d| d.clone().autodiff()).collect();
+            self.device = self.replicas[0].clone();
+            self.model = self.model.fork_to(&self.device);
+        }
+        self
+    }
+
+    /// The step's `(loss, silhouette, regularizers)` as numbers (the shards' weighted sums), or
+    /// the non-finite-loss error before the optimizer touches the weights.
+    fn finite(
+        &self,
+        [total, sil]: [Tensor<1>; 2],
+        reg: Option<Tensor<1>>,
+    ) -> Result<(f32, f32, f32), TrainError> {
         let loss: f32 = total.into_scalar();
         let sil: f32 = sil.into_scalar();
         let reg: f32 = reg.map_or(0.0, |r| r.into_scalar());
@@ -360,7 +454,69 @@ impl Trainer {
                 reg,
             });
         }
-        self.model.optimize(&mut self.optim, lr, grads);
+        Ok((loss, sil, reg))
+    }
+
+    /// [`step`](Self::step) over [`replicas`](Self::replicas): each device's share of the
+    /// objects through its own replica, backward passes launched one after the other (device
+    /// work is asynchronous, so the devices overlap), the gradients summed by `step_multi`.
+    fn step_data_parallel(
+        &mut self,
+        prepared: &PreparedStep,
+        comps: &Components,
+        lr: f64,
+    ) -> Result<(f32, f32, f32), TrainError> {
+        let b = prepared.batch.objects;
+        let mut grads = MultiGradientsParams::default();
+        let mut terms = Vec::new();
+        for (range, device) in shard_ranges(b, self.replicas.len())
+            .into_iter()
+            .zip(&self.replicas)
+        {
+            let share = range.len() as f32 / b as f32;
+            let replica = self.model.fork_to(device);
+            let part = prepared.shard(range);
+            let (total, sil, reg) = probe_loss(replica.as_ref(), &part, comps, device);
+            let total = total.mul_scalar(share);
+            let g = total.backward();
+            grads.grads.push((replica.gradients(g), device.clone()));
+            // Scalars to the main device, so that the terms sum there.
+            let here = |t: Tensor<1>| t.mul_scalar(share).to_device(&self.device);
+            terms.push((total.to_device(&self.device), here(sil), reg.map(here)));
+        }
+        let (total, sil, reg) = terms
+            .into_iter()
+            .reduce(|a, b| {
+                let reg = match (a.2, b.2) {
+                    (Some(x), Some(y)) => Some(x + y),
+                    (x, y) => x.or(y),
+                };
+                (a.0 + b.0, a.1 + b.1, reg)
+            })
+            .expect("at least one shard");
+        let losses = self.finite([total, sil], reg)?;
+        self.model
+            .optimize_multi(&mut self.optim, lr, grads, &self.device);
+        Ok(losses)
+    }
+
+    /// One optimizer step on a prepared batch.
+    pub fn step(
+        &mut self,
+        prepared: &PreparedStep,
+        comps: &Components,
+        lr: f64,
+    ) -> Result<StepStats, TrainError> {
+        let t0 = Instant::now();
+        let (loss, sil, reg) = if self.replicas.len() > 1 {
+            self.step_data_parallel(prepared, comps, lr)?
+        } else {
+            let (total, sil, reg) = probe_loss(self.model.as_ref(), prepared, comps, &self.device);
+            let grads = total.backward();
+            let losses = self.finite([total, sil], reg)?;
+            self.model.optimize(&mut self.optim, lr, grads);
+            losses
+        };
         let _ = self.device.sync();
         self.step += 1;
         let b = &prepared.batch;
@@ -393,6 +549,7 @@ mod tests {
             checkpoint_every: 0,
             init_from: None,
             prefetch: 0,
+            devices: 1,
         };
         assert!((spec.lr_at(0) - 1e-3).abs() < 1e-12);
         assert!((spec.lr_at(50) - (1e-5 + 0.5 * (1e-3 - 1e-5))).abs() < 1e-12);

@@ -51,6 +51,7 @@ pub fn training_curves(status: &[Status]) -> LineChart {
         x_label: "training step".into(),
         y_label: "loss, mean per logged interval".into(),
         log_y: true,
+        markers: false,
         series,
     }
 }

@@ -222,6 +222,8 @@ pub fn render_report(file: &AblationFile, status: &[Status], samples: &SamplesIn
         }
     }
 
+    s.push_str(&super::cost::render_cost(file, status));
+
     let _ = writeln!(s, "\n## Training curves\n");
     let _ = writeln!(s, "![training curves](training_curves.png)\n");
     let _ = writeln!(

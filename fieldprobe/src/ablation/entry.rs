@@ -49,6 +49,10 @@ pub struct AblationEntry {
     /// Summed over seeds.
     pub train_seconds: f64,
     pub eval_seconds: f64,
+    /// Field evaluations of the silhouette term in training, summed over seeds
+    /// (`Metrics::train_decoder_points`).
+    #[serde(default)]
+    pub train_decoder_points: u64,
     pub steps: usize,
     /// Means over seeds of the last logged interval's loss and its terms.
     pub final_loss: Option<f32>,
@@ -119,6 +123,7 @@ impl AblationEntry {
             mean_shape_iou: first.mean_shape_iou,
             train_seconds: runs.iter().map(|r| r.metrics.train_seconds).sum(),
             eval_seconds: runs.iter().map(|r| r.metrics.eval_seconds).sum(),
+            train_decoder_points: runs.iter().map(|r| r.metrics.train_decoder_points).sum(),
             steps: first.steps,
             final_loss: over(&|m| m.final_loss),
             final_silhouette_loss: over(&|m| m.final_silhouette_loss),

@@ -44,6 +44,7 @@ pub fn metrics(ious: &[f32]) -> Metrics {
         maxpool: Default::default(),
         steps: 10,
         train_seconds: 5.0,
+        train_decoder_points: 1000,
         eval_seconds: 1.0,
         final_loss: Some(0.1),
         final_silhouette_loss: Some(0.09),
