@@ -17,8 +17,8 @@ use fieldprobe_core::probe::{
 };
 use fieldprobe_core::regularize::Regularizer;
 use fieldprobe_core::train::{
-    Components, PreparedStep, StepStats, TrainError, TrainRun, TrainSpec, Trainer, checkpoint,
-    prepare_step, probe_loss, step_rng,
+    Components, DeviceBatch, PreparedStep, StepStats, TrainError, TrainRun, TrainSpec, Trainer,
+    checkpoint, prepare_step, probe_loss, step_rng,
 };
 use fieldprobe_models::{
     DecoderConfig, EncoderConfig, PerObjectConfig, SdfConfig, SingleViewConfig,
@@ -85,6 +85,11 @@ fn comps() -> Components {
         assign_device: None,
         regularizers: Vec::new(),
     }
+}
+
+/// A copy of `prepared` on `device`, for tests that read a prepared step again afterwards.
+fn upload(prepared: &PreparedStep, c: &Components, device: &Device) -> DeviceBatch {
+    DeviceBatch::upload(prepared.clone(), c, device)
 }
 
 const SPEC: ProbeSpec = ProbeSpec {
@@ -261,14 +266,14 @@ fn sdf_with_the_eikonal_term_learns_from_silhouettes() {
     let dir = tempfile::tempdir().unwrap();
     let mut t = Trainer::new(&sdf, &dev, 2);
     for s in 0..3 {
-        t.step(&prepare_step(&data, &c, &SPEC, 1, false, 2, s), &c, 1e-2)
+        t.step(prepare_step(&data, &c, &SPEC, 1, false, 2, s), &c, 1e-2)
             .unwrap();
     }
     checkpoint::save(&t, dir.path()).unwrap();
     let mut back = checkpoint::load(&sdf, &dev, dir.path()).unwrap();
     let next = prepare_step(&data, &c, &SPEC, 1, false, 2, 3);
-    let a = t.step(&next, &c, 1e-2).unwrap().loss;
-    let b = back.step(&next, &c, 1e-2).unwrap().loss;
+    let a = t.step(next.clone(), &c, 1e-2).unwrap().loss;
+    let b = back.step(next, &c, 1e-2).unwrap().loss;
     assert!((a - b).abs() <= 1e-6 * a.abs().max(1.0), "{a} vs {b}");
 }
 
@@ -405,7 +410,7 @@ fn dense_marching_reads_each_rays_own_samples_and_learns() {
             probe_seconds: 0.0,
             step: 0,
         };
-        let (_, sil, _) = probe_loss(t.model.as_ref(), &prepared, &c, &t.device);
+        let (_, sil, _) = probe_loss(t.model.as_ref(), &upload(&prepared, &c, &t.device), &c);
         let sil: f32 = sil.into_scalar();
         let pts = burn::tensor::Tensor::<3>::from_data(
             burn::tensor::TensorData::new(b.anchors.clone(), [b.objects, kept, 3]),
@@ -598,7 +603,7 @@ fn a_non_finite_loss_stops_training_with_a_clear_error() {
     let c = comps();
     let mut t = Trainer::new(&model(), &dev, 1);
     let err = t
-        .step(&prepare_step(&data, &c, &SPEC, 1, true, 1, 0), &c, 1e-3)
+        .step(prepare_step(&data, &c, &SPEC, 1, true, 1, 0), &c, 1e-3)
         .unwrap_err();
     assert!(matches!(err, TrainError::NonFinite { step: 1, .. }));
     assert!(err.to_string().contains("step 1"), "{err}");
@@ -634,7 +639,7 @@ fn compacted_batches_give_the_same_loss_as_full_ones() {
             probe_seconds: 0.0,
             step: 0,
         };
-        let (_, sil, _) = probe_loss(t.model.as_ref(), &prepared, &c, &t.device);
+        let (_, sil, _) = probe_loss(t.model.as_ref(), &upload(&prepared, &c, &t.device), &c);
         (sil.into_scalar::<f32>(), prepared.batch)
     };
     let (full, full_batch) = loss(false);
@@ -691,7 +696,7 @@ fn the_loss_is_the_silhouette_term_plus_every_regularizer() {
             regularizers,
             ..comps()
         };
-        let (total, sil, reg) = probe_loss(t.model.as_ref(), &prepared, &c, &t.device);
+        let (total, sil, reg) = probe_loss(t.model.as_ref(), &upload(&prepared, &c, &t.device), &c);
         (
             total.into_scalar::<f32>(),
             sil.into_scalar::<f32>(),

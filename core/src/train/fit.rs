@@ -9,7 +9,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use super::{
-    Components, PreparedStep, StepStats, TrainError, TrainSpec, Trainer, checkpoint, prepare_step,
+    Components, StepStats, TrainError, TrainSpec, Trainer, UploadedStep, checkpoint, prepare_step,
 };
 use crate::object::ObjectViews;
 use crate::probe::ProbeSpec;
@@ -54,8 +54,8 @@ impl Trainer {
     /// loss stops training before the optimizer touches the weights, the last checkpoint kept.
     ///
     /// With `schedule.prefetch = k > 0`, a worker thread prepares the probes of the next steps
-    /// (`k` waiting in a bounded channel, one more in preparation) while this thread runs the
-    /// device work, so the device waits for the CPU only when probing is slower than a step. A
+    /// and uploads them to the device(s) (`k` waiting in a bounded channel, one more in
+    /// preparation) while this thread runs the device work, so the device waits for the CPU only when probing is slower than a step. A
     /// step's probes depend only on `(seed, step)`, so the batches, and with them the weights,
     /// are the ones the serial loop makes. When training stops early, the worker's next send
     /// fails and it ends.
@@ -77,24 +77,28 @@ impl Trainer {
                 step,
             )
         };
+        let devices = self.step_devices();
         if run.schedule.prefetch == 0 {
-            return self.fit_with(run, checkpoints, hooks, prepare);
+            return self.fit_with(run, checkpoints, hooks, |step| {
+                prepare(step).upload(run.comps, &devices)
+            });
         }
         std::thread::scope(|scope| {
             let (tx, rx) = std::sync::mpsc::sync_channel(run.schedule.prefetch);
+            let devices = &devices;
             scope.spawn(move || {
                 for step in first..steps {
-                    if tx.send(prepare(step)).is_err() {
+                    if tx.send(prepare(step).upload(run.comps, devices)).is_err() {
                         break;
                     }
                 }
             });
             self.fit_with(run, checkpoints, hooks, move |step| {
-                let prepared: PreparedStep = rx
+                let uploaded: UploadedStep = rx
                     .recv()
                     .expect("the prefetch worker prepares every step, in order");
-                assert_eq!(prepared.step, step, "prefetched steps arrive in order");
-                prepared
+                assert_eq!(uploaded.step, step, "prefetched steps arrive in order");
+                uploaded
             })
         })
     }
@@ -105,7 +109,7 @@ impl Trainer {
         run: &TrainRun<'_>,
         checkpoints: Option<&Path>,
         hooks: &mut dyn TrainHooks,
-        mut next: impl FnMut(usize) -> PreparedStep,
+        mut next: impl FnMut(usize) -> UploadedStep,
     ) -> Result<(), TrainError> {
         let steps = run.schedule.steps;
         let log_every = log_interval(steps);
@@ -113,11 +117,11 @@ impl Trainer {
         let mut acc = (0.0f32, 0.0f32, 0.0f32, 0usize);
         while self.step < steps {
             let waiting = Instant::now();
-            let prepared = next(self.step);
+            let uploaded = next(self.step);
             let wait_seconds = waiting.elapsed().as_secs_f64();
             let stats = StepStats {
                 wait_seconds,
-                ..self.step(&prepared, run.comps, run.schedule.lr_at(self.step))?
+                ..self.step_uploaded(&uploaded, run.comps, run.schedule.lr_at(self.step))?
             };
             acc = (
                 acc.0 + stats.loss,

@@ -16,8 +16,10 @@
 
 pub mod checkpoint;
 mod fit;
+mod upload;
 
 pub use fit::{TrainHooks, TrainRun};
+pub use upload::{DeviceBatch, UploadedStep};
 
 use std::time::Instant;
 
@@ -201,7 +203,7 @@ pub enum TrainError {
 }
 
 /// A step's host-side inputs.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct PreparedStep {
     pub batch: ProbeBatch,
     /// `[B, 4, S, S]` input images, if the model reads images.
@@ -311,63 +313,42 @@ pub fn prepare_step(
     }
 }
 
-/// The loss of one prepared step: `(total, silhouette, sum of the regularizers)`; the last is
-/// `None` when there are none or none contributes this step.
+/// The loss of one uploaded batch: `(total, silhouette, sum of the regularizers)`; the last is
+/// `None` when there are none or none contributes this step. The batch's tensors are read by
+/// handle (cloning a tensor shares its storage), never copied.
 pub fn probe_loss(
     model: &dyn Field,
-    prepared: &PreparedStep,
+    b: &DeviceBatch,
     comps: &Components,
-    device: &Device,
 ) -> (Tensor<1>, Tensor<1>, Option<Tensor<1>>) {
-    let b = &prepared.batch;
     let (nb, n) = (b.objects, b.anchors_per_object);
-    let latent = prepared.images.as_ref().and_then(|(px, s)| {
-        let images = Tensor::<4>::from_data(TensorData::new(px.clone(), [nb, 4, *s, *s]), device);
-        model.encode(images)
-    });
-    let anchors = Tensor::<3>::from_data(TensorData::new(b.anchors.clone(), [nb, n, 3]), device);
-    let phi = model.occupancy(latent.clone(), anchors.clone());
-    let flat = Tensor::cat(
-        vec![phi.clone().reshape([nb * n]), Tensor::zeros([1], device)],
-        0,
-    );
-    let index =
-        Tensor::<1, Int>::from_data(TensorData::new(b.index.clone(), [b.rays * b.width]), device);
-    let values: Tensor<2> = flat.select(0, index).reshape([b.rays, b.width]);
-    let valid =
-        Tensor::<2, Bool>::from_data(TensorData::new(b.valid.clone(), [b.rays, b.width]), device);
-    let mut rays = RayValues::new(values, valid);
-    if comps.aggregator.uses_geometry() {
-        let grid = |v: &Vec<f32>| {
-            Tensor::<2>::from_data(TensorData::new(v.clone(), [b.rays, b.width]), device)
-        };
-        rays.depth = Some(grid(&b.depth));
-        rays.distance = Some(grid(&b.distance));
+    let device = &b.anchors.device();
+    let latent = b.images.clone().and_then(|images| model.encode(images));
+    let phi = model.occupancy(latent.clone(), b.anchors.clone());
+    let flat = Tensor::cat(vec![phi.reshape([nb * n]), Tensor::zeros([1], device)], 0);
+    let values: Tensor<2> = flat.select(0, b.index.clone()).reshape([b.rays, b.width]);
+    let mut rays = RayValues::new(values, b.valid.clone());
+    if let Some((depth, distance)) = &b.geometry {
+        rays.depth = Some(depth.clone());
+        rays.distance = Some(distance.clone());
     }
     let pred = comps.aggregator.aggregate(rays);
-    let labels = Tensor::<1>::from_data(TensorData::new(b.labels.clone(), [b.rays]), device);
-    let sil = (pred - labels)
+    let sil = (pred - b.labels.clone())
         .powi_scalar(2)
         .mean()
         .mul_scalar(b.views_per_object as f32);
-    let reg = if comps.regularizers.is_empty() {
-        None
-    } else {
-        let sampled = Tensor::<3>::from_data(
-            TensorData::new(b.sampled.clone(), [nb, b.sampled_per_object, 3]),
-            device,
-        );
+    let reg = b.sampled.as_ref().and_then(|sampled| {
         let field = FieldQuery {
             model,
             latent,
-            step: prepared.step,
+            step: b.step,
         };
         comps
             .regularizers
             .iter()
-            .filter_map(|r| r.loss(&field, &sampled))
+            .filter_map(|r| r.loss(&field, sampled))
             .reduce(|a, b| a + b)
-    };
+    });
     let total = match &reg {
         Some(r) => sil.clone() + r.clone(),
         None => sil.clone(),
@@ -457,26 +438,31 @@ impl Trainer {
         Ok((loss, sil, reg))
     }
 
-    /// [`step`](Self::step) over [`replicas`](Self::replicas): each device's share of the
+    /// The devices a step's batch is uploaded to: the replicas under data parallelism, else the
+    /// trainer's device.
+    pub fn step_devices(&self) -> Vec<Device> {
+        if self.replicas.len() > 1 {
+            self.replicas.clone()
+        } else {
+            vec![self.device.clone()]
+        }
+    }
+
+    /// [`step`](Self::step) over [`replicas`](Self::replicas): each device's shard of the
     /// objects through its own replica, backward passes launched one after the other (device
     /// work is asynchronous, so the devices overlap), the gradients summed by `step_multi`.
     fn step_data_parallel(
         &mut self,
-        prepared: &PreparedStep,
+        uploaded: &UploadedStep,
         comps: &Components,
         lr: f64,
     ) -> Result<(f32, f32, f32), TrainError> {
-        let b = prepared.batch.objects;
         let mut grads = MultiGradientsParams::default();
         let mut terms = Vec::new();
-        for (range, device) in shard_ranges(b, self.replicas.len())
-            .into_iter()
-            .zip(&self.replicas)
-        {
-            let share = range.len() as f32 / b as f32;
+        for (part, device) in uploaded.shards.iter().zip(&self.replicas) {
+            let share = part.objects as f32 / uploaded.objects as f32;
             let replica = self.model.fork_to(device);
-            let part = prepared.shard(range);
-            let (total, sil, reg) = probe_loss(replica.as_ref(), &part, comps, device);
+            let (total, sil, reg) = probe_loss(replica.as_ref(), part, comps);
             let total = total.mul_scalar(share);
             let g = total.backward();
             grads.grads.push((replica.gradients(g), device.clone()));
@@ -500,18 +486,30 @@ impl Trainer {
         Ok(losses)
     }
 
-    /// One optimizer step on a prepared batch.
+    /// One optimizer step on a prepared batch: uploads it ([`PreparedStep::upload`], moving its
+    /// vectors) and takes [`step_uploaded`](Self::step_uploaded).
     pub fn step(
         &mut self,
-        prepared: &PreparedStep,
+        prepared: PreparedStep,
+        comps: &Components,
+        lr: f64,
+    ) -> Result<StepStats, TrainError> {
+        let uploaded = prepared.upload(comps, &self.step_devices());
+        self.step_uploaded(&uploaded, comps, lr)
+    }
+
+    /// One optimizer step on a batch already on the device(s) ([`Trainer::step_devices`]).
+    pub fn step_uploaded(
+        &mut self,
+        uploaded: &UploadedStep,
         comps: &Components,
         lr: f64,
     ) -> Result<StepStats, TrainError> {
         let t0 = Instant::now();
         let (loss, sil, reg) = if self.replicas.len() > 1 {
-            self.step_data_parallel(prepared, comps, lr)?
+            self.step_data_parallel(uploaded, comps, lr)?
         } else {
-            let (total, sil, reg) = probe_loss(self.model.as_ref(), prepared, comps, &self.device);
+            let (total, sil, reg) = probe_loss(self.model.as_ref(), &uploaded.shards[0], comps);
             let grads = total.backward();
             let losses = self.finite([total, sil], reg)?;
             self.model.optimize(&mut self.optim, lr, grads);
@@ -519,18 +517,17 @@ impl Trainer {
         };
         let _ = self.device.sync();
         self.step += 1;
-        let b = &prepared.batch;
         Ok(StepStats {
             step: self.step,
             loss,
             silhouette_loss: sil,
             regularizer_loss: reg,
-            rays: b.rays,
-            pairs: b.pairs,
-            points: b.objects * b.anchors_per_object,
-            probe_seconds: prepared.probe_seconds,
+            rays: uploaded.rays,
+            pairs: uploaded.pairs,
+            points: uploaded.points,
+            probe_seconds: uploaded.probe_seconds,
             device_seconds: t0.elapsed().as_secs_f64(),
-            wait_seconds: prepared.probe_seconds,
+            wait_seconds: uploaded.probe_seconds,
         })
     }
 }
