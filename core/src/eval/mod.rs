@@ -153,12 +153,15 @@ pub fn in_domain(points: &[f32], field: impl FnOnce(&[f32]) -> Vec<f32>) -> Vec<
         .collect()
 }
 
-/// The 24-view visual hull of an object as a 0/1 field ([`projects_inside`]).
+/// The 24-view visual hull of an object as a 0/1 field ([`projects_inside`]), points in parallel
+/// (every evaluation projects a whole max-pool lattice for each test object and each reference
+/// object).
 pub fn hull_field(obj: &ObjectViews) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
+    use rayon::prelude::*;
     let sup = &obj.supervision;
     move |points: &[f32]| {
         points
-            .chunks_exact(3)
+            .par_chunks_exact(3)
             .map(|p| {
                 projects_inside(&sup.silhouettes, &sup.cameras, Vec3::from_slice(p)) as u8 as f32
             })
