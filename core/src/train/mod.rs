@@ -315,13 +315,25 @@ pub fn prepare_step(
 
 /// The loss of one uploaded batch: `(total, silhouette, sum of the regularizers)`; the last is
 /// `None` when there are none or none contributes this step. The batch's tensors are read by
-/// handle (cloning a tensor shares its storage), never copied.
+/// handle (cloning a tensor shares its storage), never copied. `b` must have been uploaded with
+/// these `comps` ([`DeviceBatch::upload`] keeps only what they read); otherwise this panics.
 pub fn probe_loss(
     model: &dyn Field,
     b: &DeviceBatch,
     comps: &Components,
 ) -> (Tensor<1>, Tensor<1>, Option<Tensor<1>>) {
     let (nb, n) = (b.objects, b.anchors_per_object);
+    // A batch uploaded for other components would silently drop a term: refuse it.
+    assert!(
+        comps.regularizers.is_empty() || b.sampled.is_some(),
+        "probe_loss: the batch was uploaded without sampled anchors, but there are regularizers \
+         (upload with the same Components)"
+    );
+    assert!(
+        !comps.aggregator.uses_geometry() || b.geometry.is_some(),
+        "probe_loss: the aggregator reads ray geometry, but the batch was uploaded without it \
+         (upload with the same Components)"
+    );
     let device = &b.anchors.device();
     let latent = b.images.clone().and_then(|images| model.encode(images));
     let phi = model.occupancy(latent.clone(), b.anchors.clone());
