@@ -55,9 +55,9 @@ impl Trainer {
     ///
     /// With `schedule.prefetch = k > 0`, a worker thread prepares the probes of the next steps
     /// and uploads them to the device(s) (`k` waiting in a bounded channel, one more in
-    /// preparation) while this thread runs the device work, so the device waits for the CPU only when probing is slower than a step. A
-    /// step's probes depend only on `(seed, step)`, so the batches, and with them the weights,
-    /// are the ones the serial loop makes. When training stops early, the worker's next send
+    /// preparation) while this thread runs the device work, so the device waits for the CPU only
+    /// when probing is slower than a step. A step's probes depend only on `(seed, step)`, so the
+    /// batches, and with them the weights, are the ones the serial loop makes. When training stops early, the worker's next send
     /// fails and it ends.
     pub fn fit(
         &mut self,
