@@ -4,11 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use tracing::info;
-
 use fieldprobe::loader::{ensure_dataset, load};
-use fieldprobe::metrics::{Metrics, Training};
-use fieldprobe::run::evaluate_run;
 use fieldprobe::run_dir::RunDir;
 
 /// Arguments of `eval`.
@@ -46,37 +42,8 @@ pub fn run(args: Args) -> Result<()> {
     std::fs::create_dir_all(&out)?;
     ensure_dataset(&rd.exp)?;
     let data = load(&rd.exp)?;
-    let selected = rd.exp.backend.select()?;
-    info!("backend: {}", selected.description);
-    let model = rd.model(&selected.device)?;
-    // Training time comes from the run's own metrics, when it has them.
-    let (seconds, decoder_points) = std::fs::read_to_string(rd.dir.join("metrics.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<Metrics>(&t).ok())
-        .map_or((0.0, 0), |m| (m.train_seconds, m.train_decoder_points));
-    let training = Training {
-        steps: rd.state.step,
-        seconds,
-        decoder_points,
-        history: rd.state.history.clone(),
-        terms: rd.state.terms.clone(),
-    };
-    info!(
-        "evaluating {} at step {} → {}",
-        rd.dir.display(),
-        rd.state.step,
-        out.display()
-    );
     let outputs = crate::run::ReportOutputs::default();
-    let outcome = evaluate_run(
-        &rd.exp,
-        model.as_ref(),
-        &data,
-        &out,
-        &selected,
-        &training,
-        &outputs,
-    )?;
+    let outcome = rd.evaluate(&data, &out, &outputs)?;
     println!("{}", outcome.report);
     println!("outputs: {}", out.display());
     Ok(())

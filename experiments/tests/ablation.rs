@@ -197,6 +197,49 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
     }
 }
 
+/// The CPU ablations' bases train exactly as the λ sweep's λ = 0.01 row, and the regularizer
+/// ablation's "no regularizer" as the sweep's "none" row, so that a run can be copied across
+/// instead of trained twice (each file's BUDGET comment says how; `--resume` compares training
+/// tables). The Δd ablation is on tables: it differs in `[data]` only. All are evaluated alike.
+#[test]
+fn the_cpu_ablation_bases_train_as_the_lambda_sweep_rows() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let load =
+        |rel: &str| AblationFile::load(&root.join(rel)).unwrap_or_else(|e| panic!("{rel}: {e:#}"));
+    let entry = |f: &AblationFile, name: &str| {
+        let e = f.entries.iter().find(|e| e.name == name);
+        let exp = &e
+            .unwrap_or_else(|| panic!("{}: no entry {name}", f.name))
+            .experiment;
+        (exp.training_table().unwrap(), exp.eval_table().unwrap())
+    };
+    let sweep = load("sweeps/lambda-single-view.toml");
+    let (full, eval) = entry(&sweep, "λ=0.01");
+    let (none, _) = entry(&sweep, "none");
+    let without_data = |mut t: toml::Table| {
+        t.remove("data").expect("a [data] table");
+        t
+    };
+    for (rel, base, same_data) in [
+        ("ablations/sampling.toml", "full model", true),
+        ("ablations/regularizer.toml", "p=0.8", true),
+        ("ablations/delta.toml", "Δd=0.03", false),
+    ] {
+        let f = load(rel);
+        assert_eq!(f.run_seeds(), sweep.run_seeds(), "{rel}");
+        let (train, e) = entry(&f, base);
+        assert_eq!(e, eval, "{rel}");
+        if same_data {
+            assert_eq!(train, full, "{rel}");
+        } else {
+            assert_ne!(train, full, "{rel}");
+            assert_eq!(without_data(train), without_data(full.clone()), "{rel}");
+        }
+    }
+    let regularizer = load("ablations/regularizer.toml");
+    assert_eq!(entry(&regularizer, "no regularizer").0, none);
+}
+
 const TINY: &str = r#"
 name = "tiny-ablation"
 base_name = "full"
@@ -359,10 +402,61 @@ fn a_tiny_ablation_runs_every_variant_and_resumes_by_skipping_finished_ones() {
     assert_eq!(entries.len(), 3);
     assert_eq!(entries[0].variant, "full");
 
-    // A changed configuration of a finished variant is refused on resume.
+    // Another `[eval]` and another name: every finished variant is evaluated again from its
+    // checkpoint, not retrained (its training time is kept), and its config.toml follows.
+    let metrics = |s: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(out.join(s).join("metrics.json")).unwrap())
+            .unwrap()
+    };
+    let trained: Vec<serde_json::Value> = slugs
+        .iter()
+        .map(|s| metrics(s)["train_seconds"].clone())
+        .collect();
+    let tiny = TINY.replace("DATA", data.to_str().unwrap());
+    let renamed = tiny
+        .replace("name = \"tiny-ablation\"", "name = \"renamed\"")
+        .replace("[eval]\nviews = 2", "[eval]\nviews = 1");
+    assert_ne!(renamed, tiny);
+    std::fs::write(&file, &renamed).unwrap();
+    let log = ok(&experiments(&[f, "--out", o, "--resume"]));
+    assert_eq!(
+        log.matches("evaluating its checkpoint again").count(),
+        3,
+        "{log}"
+    );
+    assert!(!log.contains("resumed from"), "{log}");
+    for (s, seconds) in slugs.iter().zip(&trained) {
+        let m = metrics(s);
+        assert_eq!(m["per_category"]["chair"]["views"], 1, "{s}: {m}");
+        assert_eq!(&m["train_seconds"], seconds, "{s}");
+        let cfg = std::fs::read_to_string(out.join(s).join("config.toml")).unwrap();
+        assert!(cfg.contains("name = \"renamed-"), "{s}: {cfg}");
+    }
+    let log = ok(&experiments(&[f, "--out", o, "--resume"]));
+    assert_eq!(log.matches("finished, skipping").count(), 3, "{log}");
+
+    // A run directory copied from another file's entry that trains the same way is taken over.
+    let other = dir.path().join("other");
+    copy_dir(&out.join("full"), &other.join("full"));
+    std::fs::write(&file, &tiny).unwrap();
+    let log = ok(&experiments(&[
+        f,
+        "--out",
+        other.to_str().unwrap(),
+        "--resume",
+        "--variant",
+        "full",
+    ]));
+    assert!(
+        log.contains("'full' seed 1: trained under another [eval]"),
+        "{log}"
+    );
+    assert!(!log.contains("resumed from"), "{log}");
+
+    // A changed training configuration of a finished variant is refused on resume.
     std::fs::write(
         &file,
-        TINY.replace("DATA", data.to_str().unwrap()).replace(
+        renamed.replace(
             "assignment = \"naive\"",
             "assignment = \"naive\", views = 1",
         ),
@@ -371,10 +465,22 @@ fn a_tiny_ablation_runs_every_variant_and_resumes_by_skipping_finished_ones() {
     let changed = experiments(&[f, "--out", o, "--resume"]);
     assert!(!changed.status.success());
     assert!(
-        text(&changed).contains("variant 'naive' was run with a different configuration"),
+        text(&changed).contains("variant 'naive' was trained with a different configuration"),
         "{}",
         text(&changed)
     );
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &to.join(e.file_name()));
+        } else {
+            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+        }
+    }
 }
 
 #[test]

@@ -476,6 +476,49 @@ impl Experiment {
     pub fn to_toml(&self) -> Result<String> {
         toml::to_string_pretty(self).context("cannot serialize the resolved experiment")
     }
+
+    /// The resolved configuration less what does not change the trained weights: the run's
+    /// `name`, the `[eval]` table, `data.eval_split`, and `train.checkpoint_every` and
+    /// `train.prefetch` (when checkpoints are written, and how far probing runs ahead of the
+    /// optimizer: the prefetched loop is bit-identical to the serial one, `tests/training.rs`).
+    /// Two experiments with equal training tables train the same weights from their seed, so a
+    /// finished run can be evaluated again under other `[eval]` settings, or taken over by
+    /// another file's entry, instead of retrained (the ablation's `--resume` does both).
+    pub fn training_table(&self) -> Result<toml::Table> {
+        Ok(self.split_tables()?.0)
+    }
+
+    /// What [`Experiment::training_table`] leaves out and the evaluation reads: `[eval]` and
+    /// `data.eval_split`. Runs with equal training and evaluation tables have the same metrics.
+    pub fn eval_table(&self) -> Result<toml::Table> {
+        Ok(self.split_tables()?.1)
+    }
+
+    /// The resolved configuration as (training table, evaluation table).
+    fn split_tables(&self) -> Result<(toml::Table, toml::Table)> {
+        let mut table =
+            toml::Table::try_from(self).context("cannot serialize the resolved experiment")?;
+        table.remove("name");
+        let mut eval = toml::Table::new();
+        if let Some(e) = table.remove("eval") {
+            eval.insert("eval".into(), e);
+        }
+        for (section, keys) in [
+            ("data", &["eval_split"][..]),
+            ("train", &["checkpoint_every", "prefetch"][..]),
+        ] {
+            if let Some(toml::Value::Table(t)) = table.get_mut(section) {
+                for key in keys {
+                    if let Some(v) = t.remove(*key)
+                        && section == "data"
+                    {
+                        eval.insert((*key).into(), v);
+                    }
+                }
+            }
+        }
+        Ok((table, eval))
+    }
 }
 
 /// What to write instead of a key that earlier versions of the experiment format had, if `table`

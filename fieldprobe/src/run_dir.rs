@@ -10,7 +10,10 @@ use fieldprobe_core::geometry::camera::NMR_IMAGE_SIZE;
 use fieldprobe_core::train::checkpoint::{self, CheckpointState};
 
 use crate::experiment::{Experiment, load_experiment};
-use crate::run::InputSpec;
+use crate::loader::CategoryData;
+use crate::metrics::{Metrics, Training};
+use crate::outputs::Outputs;
+use crate::run::{InputSpec, RunOutcome, evaluate_run};
 
 /// A run directory with its resolved experiment and latest checkpoint.
 #[derive(Debug)]
@@ -58,6 +61,47 @@ impl RunDir {
             device,
             &self.dir.join("checkpoints"),
         )?)
+    }
+
+    /// Evaluates the latest checkpoint with `self.exp`'s `[eval]` settings on `data` (loaded for
+    /// `self.exp`) and writes `metrics.json`, `objects.csv` and, through `outputs`, the report
+    /// into `out`. The training time and decoder points are carried over from the run's own
+    /// `metrics.json` when it has one (an evaluation does not retrain, and 0 s would misreport).
+    pub fn evaluate(
+        &self,
+        data: &[CategoryData],
+        out: &Path,
+        outputs: &dyn Outputs,
+    ) -> Result<RunOutcome> {
+        let selected = self.exp.backend.select()?;
+        tracing::info!("backend: {}", selected.description);
+        let model = self.model(&selected.device)?;
+        let (seconds, decoder_points) = std::fs::read_to_string(self.dir.join("metrics.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str::<Metrics>(&t).ok())
+            .map_or((0.0, 0), |m| (m.train_seconds, m.train_decoder_points));
+        let training = Training {
+            steps: self.state.step,
+            seconds,
+            decoder_points,
+            history: self.state.history.clone(),
+            terms: self.state.terms.clone(),
+        };
+        tracing::info!(
+            "evaluating {} at step {} → {}",
+            self.dir.display(),
+            self.state.step,
+            out.display()
+        );
+        evaluate_run(
+            &self.exp,
+            model.as_ref(),
+            data,
+            out,
+            &selected,
+            &training,
+            outputs,
+        )
     }
 
     /// Writes the latest checkpoint's weights to `out` as safetensors (tensor names are module

@@ -15,7 +15,12 @@
 //!
 //! All entries share the dataset (generated once, loaded once per distinct `[data]`). With
 //! `--resume` an entry whose `metrics.json` exists is skipped, the one with a checkpoint continues,
-//! and the rest start; without it, a directory already holding any entry is refused. An entry that
+//! and the rest start; without it, a directory already holding any entry is refused. What
+//! `--resume` compares with the entry's recorded `config.toml` is the *training* configuration
+//! ([`Experiment::training_table`]): a different one is refused; a finished run whose `[eval]`
+//! alone changed is evaluated again from its checkpoint, not retrained; a different `name` does
+//! not matter, so an entry that trains exactly as another file's entry (an ablation's base and a
+//! sweep's row) can take over that run directory, copied into place, instead of training it twice. An entry that
 //! fails (e.g. a non-finite loss) is reported, the others still run, and the command exits with
 //! an error at the end.
 //!
@@ -47,12 +52,13 @@ use fieldprobe_core::data::dataset::write_atomic;
 use fieldprobe_core::train::checkpoint;
 use tracing::{error, info};
 
-use crate::experiment::{DataConfig, Experiment};
+use crate::experiment::{DataConfig, Experiment, load_experiment};
 use crate::loader::{CategoryData, ensure_dataset, load};
 use crate::lock::RunLock;
 use crate::metrics::Metrics;
 use crate::outputs::Outputs;
-use crate::run::{FileOutcome, RunOptions, prepare_dir, run_one};
+use crate::run::{FileOutcome, RunOptions, RunOutcome, prepare_dir, run_one};
+use crate::run_dir::RunDir;
 use crate::variants::{AblationFile, Variant};
 
 /// Runs an ablation file (one with `[[variants]]`): every entry and seed, or only those that
@@ -87,21 +93,22 @@ pub fn run(path: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result<File
         );
     }
     // Every (entry, seed) run, with its experiment and directory.
-    let mut runs: Vec<Vec<(u64, Experiment, PathBuf)>> = Vec::new();
+    let mut runs: Vec<Vec<(u64, Experiment, PathBuf, Prior)>> = Vec::new();
     for e in &file.entries {
         let mut per = Vec::new();
         for &seed in &seeds {
             let exp = with_seed(&e.experiment, seed)
                 .with_context(|| format!("{}: variant '{}'", path.display(), e.name))?;
-            per.push((seed, exp, file.run_dir(&root, e, seed)));
+            let dir = file.run_dir(&root, e, seed);
+            per.push((seed, exp, dir, Prior::Nothing));
         }
         runs.push(per);
     }
 
     // Check everything before writing anything.
-    for (e, per) in file.entries.iter().zip(&runs) {
-        for (seed, exp, dir) in per {
-            check_run_dir(path, args, e, *seed, exp, dir, &root)?;
+    for (e, per) in file.entries.iter().zip(&mut runs) {
+        for (seed, exp, dir, prior) in per {
+            *prior = check_run_dir(path, args, e, *seed, exp, dir, &root)?;
         }
     }
     std::fs::create_dir_all(&root).with_context(|| format!("cannot create {}", root.display()))?;
@@ -126,43 +133,63 @@ pub fn run(path: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result<File
             .as_ref()
             .is_none_or(|v| v == &e.name || v == &e.slug);
         let mut skipped = false;
-        for (seed, exp, dir) in per {
+        for (seed, exp, dir, prior) in per {
             k += 1;
-            let finished = dir.join("metrics.json").is_file();
+            let finished = *prior == Prior::Finished;
             let wanted = chosen && args.seed.is_none_or(|s| s == *seed);
             if !finished && !wanted {
                 skipped = true;
                 continue;
             }
-            let outcome = if finished {
-                info!(
-                    "run {k}/{total} '{}' seed {seed}: finished, skipping ({})",
-                    e.name,
-                    dir.display()
-                );
-                read_finished(*seed, dir)
-            } else {
-                info!(
-                    "run {k}/{total} '{}' seed {seed} → {}",
-                    e.name,
-                    dir.display()
-                );
-                let resume = checkpoint::latest(&dir.join("checkpoints"))?.is_some();
-                (|| {
-                    let data = cache.get(exp)?;
-                    let _lock = RunLock::acquire(dir)?;
-                    prepare_dir(exp, dir)?;
-                    let o = run_one(exp, path, data, dir, resume, outputs)?;
+            let outcome = match prior {
+                Prior::Finished => {
                     info!(
-                        "'{}' seed {seed}: mean IoU {:.3}",
-                        e.name, o.metrics.mean_iou
+                        "run {k}/{total} '{}' seed {seed}: finished, skipping ({})",
+                        e.name,
+                        dir.display()
                     );
-                    Ok(SeedRun {
-                        seed: *seed,
-                        metrics: o.metrics,
-                        history: o.history,
-                    })
-                })()
+                    read_finished(*seed, dir)
+                }
+                Prior::Trained => {
+                    info!(
+                        "run {k}/{total} '{}' seed {seed}: trained under another [eval]; evaluating its checkpoint again ({})",
+                        e.name,
+                        dir.display()
+                    );
+                    (|| {
+                        let data = cache.get(exp)?;
+                        let _lock = RunLock::acquire(dir)?;
+                        let o = evaluate_again(exp, dir, data, outputs)?;
+                        Ok(SeedRun {
+                            seed: *seed,
+                            metrics: o.metrics,
+                            history: o.history,
+                        })
+                    })()
+                }
+                Prior::Nothing | Prior::Checkpoint => {
+                    info!(
+                        "run {k}/{total} '{}' seed {seed} → {}",
+                        e.name,
+                        dir.display()
+                    );
+                    let resume = *prior == Prior::Checkpoint;
+                    (|| {
+                        let data = cache.get(exp)?;
+                        let _lock = RunLock::acquire(dir)?;
+                        prepare_dir(exp, dir)?;
+                        let o = run_one(exp, path, data, dir, resume, outputs)?;
+                        info!(
+                            "'{}' seed {seed}: mean IoU {:.3}",
+                            e.name, o.metrics.mean_iou
+                        );
+                        Ok(SeedRun {
+                            seed: *seed,
+                            metrics: o.metrics,
+                            history: o.history,
+                        })
+                    })()
+                }
             };
             match outcome {
                 Ok(r) => done.push(r),
@@ -227,8 +254,22 @@ fn with_seed(exp: &Experiment, seed: u64) -> Result<Experiment> {
     Ok(copy)
 }
 
+/// What an entry's run directory already holds, and so what this invocation does with it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Prior {
+    /// Nothing (or not resuming): train from step 0.
+    Nothing,
+    /// A checkpoint of this training configuration: continue training, then evaluate.
+    Checkpoint,
+    /// A finished run of this configuration: skip it.
+    Finished,
+    /// A finished run of this training configuration that was evaluated under other `[eval]`
+    /// settings: evaluate its checkpoint again, without retraining.
+    Trained,
+}
+
 /// Refuses to run over a run directory that holds results, unless resuming with the same
-/// configuration.
+/// training configuration ([`Experiment::training_table`]); says what the directory holds.
 fn check_run_dir(
     path: &Path,
     args: &RunOptions,
@@ -237,10 +278,13 @@ fn check_run_dir(
     exp: &Experiment,
     dir: &Path,
     root: &Path,
-) -> Result<()> {
+) -> Result<Prior> {
     let done = dir.join("metrics.json").is_file();
     let ckpt = checkpoint::latest(&dir.join("checkpoints"))?;
-    if !args.resume && (done || ckpt.is_some()) {
+    if !done && ckpt.is_none() {
+        return Ok(Prior::Nothing);
+    }
+    if !args.resume {
         bail!(
             "{} already holds variant '{}' seed {seed} ({}); pass --resume to continue the ablation (finished runs are skipped) or --out DIR to start a new one",
             root.display(),
@@ -253,20 +297,48 @@ fn check_run_dir(
         );
     }
     let config = dir.join("config.toml");
-    if args.resume && (done || ckpt.is_some()) && config.is_file() {
-        let old = std::fs::read_to_string(&config)
-            .with_context(|| format!("cannot read {}", config.display()))?;
-        if old != exp.to_toml()? {
+    let same_eval = if config.is_file() {
+        let old = load_experiment(&config).with_context(|| {
+            format!(
+                "{}: variant '{}' seed {seed}: cannot read the recorded configuration",
+                path.display(),
+                e.name
+            )
+        })?;
+        if old.training_table()? != exp.training_table()? {
             bail!(
-                "{}: variant '{}' was run with a different configuration ({}); restore the file, remove {} to rerun it, or pass --out DIR",
+                "{}: variant '{}' was trained with a different configuration ({}); restore the file, remove {} to rerun it, or pass --out DIR",
                 path.display(),
                 e.name,
                 config.display(),
                 dir.display()
             );
         }
-    }
-    Ok(())
+        old.eval_table()? == exp.eval_table()?
+    } else {
+        true
+    };
+    Ok(match (done, same_eval) {
+        (true, true) => Prior::Finished,
+        (true, false) => Prior::Trained,
+        (false, _) => Prior::Checkpoint,
+    })
+}
+
+/// Evaluates the finished run in `dir` again under `exp`'s `[eval]` (its training configuration
+/// is `exp`'s, checked by [`check_run_dir`]); `config.toml` is rewritten only after the new
+/// `metrics.json` is, so that a run killed in between is evaluated again on the next resume.
+fn evaluate_again(
+    exp: &Experiment,
+    dir: &Path,
+    data: &[CategoryData],
+    outputs: &dyn Outputs,
+) -> Result<RunOutcome> {
+    let mut rd = RunDir::open(dir)?;
+    rd.exp = with_seed(exp, exp.seed)?;
+    let outcome = rd.evaluate(data, dir, outputs)?;
+    prepare_dir(exp, dir)?;
+    Ok(outcome)
 }
 
 /// A run that finished in an earlier invocation.
