@@ -411,6 +411,16 @@ pub fn write_predictions_csv(path: &Path, rows: &[PredictionScores]) -> Result<(
     Ok(())
 }
 
+/// Reads an `objects.csv` written by [`write_predictions_csv`]; errors name the file and the row.
+pub fn read_predictions_csv(path: &Path) -> Result<Vec<PredictionScores>> {
+    let mut csv = csv::Reader::from_path(path)
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
+    csv.deserialize()
+        .enumerate()
+        .map(|(i, r)| r.map_err(|e| anyhow::anyhow!("{}: row {}: {e}", path.display(), i + 1)))
+        .collect()
+}
+
 /// A category's per-object (`iou`, `hull`, …) and per-prediction (`centre`, `outside`) scores.
 #[derive(Default)]
 struct Accumulators {
@@ -450,7 +460,48 @@ fn summarize(scores: &[MeshScore], cfg: &EvalConfig, objects: usize) -> Option<M
 
 #[cfg(test)]
 mod tests {
-    use super::{eval_views, meshed_views, reference_picks};
+    use super::{
+        PredictionScores, eval_views, meshed_views, read_predictions_csv, reference_picks,
+        write_predictions_csv,
+    };
+
+    /// `objects.csv` reads back as written, empty mesh columns as `None`; a damaged row is an
+    /// error naming the file and the row.
+    #[test]
+    fn objects_csv_reads_back_what_was_written() {
+        let row = |view: Option<usize>, mesh: Option<f32>| PredictionScores {
+            category: "chair".into(),
+            object: "proc_chair_test_00000".into(),
+            view,
+            iou: 0.5,
+            centre_iou: 0.4,
+            outside_hull: 0.25,
+            visual_hull_iou: 0.6,
+            mesh_iou: mesh,
+            chamfer_l1: mesh.map(|m| m / 10.0),
+            fscore: mesh,
+            normal_consistency: mesh,
+            mesh_file: mesh.map(|_| "meshes/03001627/x.ply".into()),
+        };
+        let rows = vec![
+            row(Some(0), Some(0.75)),
+            row(Some(6), None),
+            row(None, None),
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("objects.csv");
+        write_predictions_csv(&path, &rows).unwrap();
+        assert_eq!(read_predictions_csv(&path).unwrap(), rows);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        lines[2] = lines[2].replacen(",0.5,", ",half,", 1);
+        std::fs::write(&path, lines.join("\n")).unwrap();
+        let err = read_predictions_csv(&path).unwrap_err().to_string();
+        assert!(
+            err.contains("objects.csv") && err.contains("row 2"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn reference_objects_are_spread_over_the_whole_split() {

@@ -32,6 +32,9 @@ fn the_report_has_every_row_and_the_curves_every_finished_entry() {
         "* **2** — orange (`#ff7f0e`): normal",
         "* **3** — green (`#2ca02c`): naive (not drawn: not finished)",
         "Table 4, chair",
+        // Paired on the same objects: every difference is exactly the same, so each is resolved.
+        "## Against the base",
+        "| 2 | normal | **-0.200 (0.000)** | **+0.200 (0.000)** | **-0.080 (0.000)** |",
     ] {
         assert!(report.contains(needle), "missing {needle:?} in\n{report}");
     }

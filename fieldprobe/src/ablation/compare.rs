@@ -78,6 +78,20 @@ pub(super) fn paired_se(a: &BTreeMap<String, f32>, b: &BTreeMap<String, f32>) ->
     Some((var / n as f64).sqrt() as f32)
 }
 
+/// The mean of the paired differences `a − b` over the keys both maps have, and its standard
+/// error; `None` with fewer than 2 shared keys.
+pub fn paired_difference(
+    a: &BTreeMap<String, f32>,
+    b: &BTreeMap<String, f32>,
+) -> Option<(f32, f32)> {
+    let d: Vec<f32> = a
+        .iter()
+        .filter_map(|(k, x)| b.get(k).map(|y| x - y))
+        .collect();
+    let se = paired_se(a, b)?;
+    Some((d.iter().sum::<f32>() / d.len() as f32, se))
+}
+
 /// Compares our ordering of `rows` with the paper's (the rule is in the module docs).
 pub fn compare(rows: &[Row]) -> Comparison {
     let mut pairs = Vec::new();

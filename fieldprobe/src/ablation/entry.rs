@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::evaluate::{CategoryMetrics, MeshMetrics};
+use crate::evaluate::{CategoryMetrics, MeshMetrics, PredictionScores};
 use crate::metrics::Metrics;
 use crate::variants::Variant;
 
@@ -30,6 +30,13 @@ pub struct AblationEntry {
     /// Per seed and evaluation object (`s<seed>/<category>/<id>`): its IoU.
     #[serde(default)]
     pub per_seed_object: BTreeMap<String, f32>,
+    /// Per seed and evaluation object, as `per_seed_object`: the mean over its meshed views of
+    /// Chamfer-L1 and of normal consistency (empty without meshes or ground-truth meshes), so
+    /// that rows are paired on the surface metrics too.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub per_seed_object_chamfer: BTreeMap<String, f32>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub per_seed_object_normals: BTreeMap<String, f32>,
     /// Means over seeds of the centre-sampled IoU, the share of volume outside the visual hull,
     /// and the mesh metrics (averaged over categories; absent without meshes).
     #[serde(default)]
@@ -84,6 +91,31 @@ pub struct SeedRun {
     pub seed: u64,
     pub metrics: Metrics,
     pub history: Vec<(usize, f32)>,
+    /// Its `objects.csv` (empty when the run has none).
+    pub predictions: Vec<PredictionScores>,
+}
+
+/// Per seed and object (`s<seed>/<category>/<id>`): the mean of `f` over the run's predictions
+/// that have it (the meshed views).
+fn per_seed_object_mean(
+    runs: &[SeedRun],
+    f: impl Fn(&PredictionScores) -> Option<f32>,
+) -> BTreeMap<String, f32> {
+    let mut sums: BTreeMap<String, (f32, usize)> = BTreeMap::new();
+    for r in runs {
+        for p in &r.predictions {
+            if let Some(v) = f(p) {
+                let e = sums
+                    .entry(format!("s{}/{}/{}", r.seed, p.category, p.object))
+                    .or_default();
+                e.0 += v;
+                e.1 += 1;
+            }
+        }
+    }
+    sums.into_iter()
+        .map(|(k, (sum, n))| (k, sum / n as f32))
+        .collect()
 }
 
 impl AblationEntry {
@@ -113,6 +145,8 @@ impl AblationEntry {
             seeds: runs.iter().map(|r| r.seed).collect(),
             seed_ious: runs.iter().map(|r| r.metrics.mean_iou).collect(),
             per_seed_object,
+            per_seed_object_chamfer: per_seed_object_mean(runs, |p| p.chamfer_l1),
+            per_seed_object_normals: per_seed_object_mean(runs, |p| p.normal_consistency),
             centre_iou: over(&|m| Some(m.centre_iou)).unwrap_or(0.0),
             outside_hull: over(&|m| Some(m.outside_hull)).unwrap_or(0.0),
             mesh_iou: over(&|m| mesh_mean(m, |x| Some(x.iou))),

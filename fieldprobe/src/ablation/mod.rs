@@ -52,6 +52,7 @@ use fieldprobe_core::data::dataset::write_atomic;
 use fieldprobe_core::train::checkpoint;
 use tracing::{error, info};
 
+use crate::evaluate::{PredictionScores, read_predictions_csv};
 use crate::experiment::{DataConfig, Experiment, load_experiment};
 use crate::loader::{CategoryData, ensure_dataset, load};
 use crate::lock::RunLock;
@@ -164,6 +165,7 @@ pub fn run(path: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result<File
                             seed: *seed,
                             metrics: o.metrics,
                             history: o.history,
+                            predictions: read_predictions(dir)?,
                         })
                     })()
                 }
@@ -187,6 +189,7 @@ pub fn run(path: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result<File
                             seed: *seed,
                             metrics: o.metrics,
                             history: o.history,
+                            predictions: read_predictions(dir)?,
                         })
                     })()
                 }
@@ -355,7 +358,17 @@ fn read_finished(seed: u64, dir: &Path) -> Result<SeedRun> {
         seed,
         metrics,
         history,
+        predictions: read_predictions(dir)?,
     })
+}
+
+/// The run's `objects.csv` (none: an empty list, as from runs made before it was written).
+fn read_predictions(dir: &Path) -> Result<Vec<PredictionScores>> {
+    let path = dir.join("objects.csv");
+    if !path.is_file() {
+        return Ok(Vec::new());
+    }
+    read_predictions_csv(&path)
 }
 
 /// Writes `ablation.json`: the finished entries, base first.

@@ -160,3 +160,18 @@ fn ablation_json_lists_finished_entries_base_first() {
         assert!(json.contains(key), "{key}");
     }
 }
+
+#[test]
+fn paired_differences_are_means_over_shared_keys_with_their_standard_error() {
+    use std::collections::BTreeMap;
+    let map = |v: &[(&str, f32)]| -> BTreeMap<String, f32> {
+        v.iter().map(|(k, x)| (k.to_string(), *x)).collect()
+    };
+    let a = map(&[("a", 0.5), ("b", 0.7), ("c", 0.9), ("only-a", 5.0)]);
+    let b = map(&[("a", 0.4), ("b", 0.4), ("c", 0.9), ("only-b", -5.0)]);
+    // Differences 0.1, 0.3, 0.0: mean 0.1333, sample SD 0.1528, SE 0.0882.
+    let (d, se) = paired_difference(&a, &b).unwrap();
+    assert!((d - 0.4 / 3.0).abs() < 1e-6, "{d}");
+    assert!((se - 0.088_19).abs() < 1e-4, "{se}");
+    assert_eq!(paired_difference(&a, &map(&[("a", 0.0)])), None);
+}
