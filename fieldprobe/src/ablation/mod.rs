@@ -20,9 +20,9 @@
 //! ([`Experiment::training_table`]): a different one is refused; a finished run whose `[eval]`
 //! alone changed is evaluated again from its checkpoint, not retrained; a different `name` does
 //! not matter, so an entry that trains exactly as another file's entry (an ablation's base and a
-//! sweep's row) can take over that run directory, copied into place, instead of training it twice. An entry that
-//! fails (e.g. a non-finite loss) is reported, the others still run, and the command exits with
-//! an error at the end.
+//! sweep's row) can take over that run directory, copied into place, instead of training it
+//! twice. An entry that fails (e.g. a non-finite loss) is reported, the others still run, and the
+//! command exits with an error at the end.
 //!
 //! # Ordering vs the paper
 //!
