@@ -503,19 +503,14 @@ impl Experiment {
         if let Some(e) = table.remove("eval") {
             eval.insert("eval".into(), e);
         }
-        for (section, keys) in [
-            ("data", &["eval_split"][..]),
-            ("train", &["checkpoint_every", "prefetch"][..]),
-        ] {
-            if let Some(toml::Value::Table(t)) = table.get_mut(section) {
-                for key in keys {
-                    if let Some(v) = t.remove(*key)
-                        && section == "data"
-                    {
-                        eval.insert((*key).into(), v);
-                    }
-                }
-            }
+        if let Some(toml::Value::Table(data)) = table.get_mut("data")
+            && let Some(split) = data.remove("eval_split")
+        {
+            eval.insert("eval_split".into(), split);
+        }
+        if let Some(toml::Value::Table(train)) = table.get_mut("train") {
+            train.remove("checkpoint_every");
+            train.remove("prefetch");
         }
         Ok((table, eval))
     }
