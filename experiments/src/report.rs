@@ -19,13 +19,15 @@ pub fn render(exp: &Experiment, m: &Metrics, gallery: &[GalleryRow], curves: boo
     let _ = writeln!(
         s,
         "3D IoU at {r}³ in the NMR protocol on the **{split}** split, {views} input view(s) per object; \
-         {steps} training steps in {t:.0} s on {dev}; evaluation {e:.0} s.\n",
+         {steps} training steps in {t:.0} s on {dev}; evaluation {e:.0} s ({g:.2} M field points \
+         for the predictions' voxels).\n",
         r = m.resolution,
         split = m.split,
         steps = m.steps,
         t = m.train_seconds,
         dev = m.device,
-        e = m.eval_seconds
+        e = m.eval_seconds,
+        g = m.eval_grid_points as f64 / 1e6
     );
     let _ = writeln!(
         s,

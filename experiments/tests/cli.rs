@@ -501,6 +501,18 @@ fn a_run_reports_meshes_and_pictures_and_its_inputs_reconstruct() {
             .unwrap_or_else(|| panic!("{key} missing: {mesh}"));
         assert!(v.is_finite() && v >= 0.0, "{key} = {v}");
     }
+    // The two predictions' voxel conversions read every centre, and at most the whole lattice
+    // besides.
+    let (r3, s) = (
+        metrics["resolution"].as_u64().unwrap().pow(3),
+        metrics["subsamples"].as_u64().unwrap(),
+    );
+    let lattice = (metrics["resolution"].as_u64().unwrap() * s + 1).pow(3);
+    let points = metrics["eval_grid_points"].as_u64().unwrap();
+    assert!(
+        (2 * r3..=2 * (r3 + lattice)).contains(&points),
+        "{points} grid points"
+    );
     let report = std::fs::read_to_string(run.join("report.md")).unwrap();
     for needle in [
         "## Meshes",

@@ -207,6 +207,11 @@ pub struct Evaluation {
     /// objects per category (what `gallery.png` shows), keyed by `(category name, object id)`;
     /// empty when `eval.mesh_views` is 0 (no meshes were extracted).
     pub gallery_meshes: GalleryMeshes,
+    /// Field points evaluated to convert the predictions to voxels (centres and max-pool lattice
+    /// points, summed over predictions; meshes and references not counted): most of the
+    /// evaluation's cost, and what makes a blurry field slow to evaluate (see
+    /// `fieldprobe_core::eval::occupancy`).
+    pub grid_points: u64,
 }
 
 /// Meshes by [`gallery_key`].
@@ -235,6 +240,7 @@ pub fn evaluate(
     let views = eval_views(cfg.views);
     let mut gallery_meshes = BTreeMap::new();
     let mut predictions = Vec::new();
+    let mut grid_points = 0u64;
     let total: usize = data.iter().map(|c| c.eval.len()).sum();
     let bar = crate::progress::bar("eval", total, 0);
     let mut out = BTreeMap::new();
@@ -262,6 +268,7 @@ pub fn evaluate(
         {
             let latents = encode_views(model, obj, device);
             let preds = predict_all_views(model, latents.as_ref(), &views, &protocol, device);
+            grid_points += preds.iter().map(|p| p.evaluated as u64).sum::<u64>();
             let hull = object_hull(obj, &protocol).maxpool;
             let hull_iou = hull.iou(gt);
             let first_row = predictions.len();
@@ -387,6 +394,7 @@ pub fn evaluate(
         per_category: out,
         predictions,
         gallery_meshes,
+        grid_points,
     })
 }
 

@@ -44,6 +44,10 @@ pub struct Metrics {
     #[serde(default)]
     pub train_decoder_points: u64,
     pub eval_seconds: f64,
+    /// Field points the evaluation read to convert the test predictions to voxels
+    /// (`evaluate::Evaluation::grid_points`): what `eval_seconds` mostly pays for.
+    #[serde(default)]
+    pub eval_grid_points: u64,
     pub final_loss: Option<f32>,
     /// The silhouette and regularizer terms of the last logged interval (means).
     #[serde(default)]

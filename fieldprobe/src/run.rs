@@ -202,6 +202,7 @@ pub fn evaluate_run(
     )?;
     write_predictions_csv(&dir.join("objects.csv"), &evaluation.predictions)?;
     let eval_seconds = t0.elapsed().as_secs_f64();
+    let eval_grid_points = evaluation.grid_points;
     let per_category = evaluation.per_category;
     let metrics = Metrics {
         experiment: exp.name.clone(),
@@ -221,6 +222,7 @@ pub fn evaluate_run(
         train_seconds: training.seconds,
         train_decoder_points: training.decoder_points,
         eval_seconds,
+        eval_grid_points,
         final_loss: training.history.last().map(|h| h.1),
         final_silhouette_loss: training.terms.last().map(|t| t.1),
         final_regularizer_loss: training.terms.last().map(|t| t.2),

@@ -46,6 +46,7 @@ pub fn metrics(ious: &[f32]) -> Metrics {
         train_seconds: 5.0,
         train_decoder_points: 1000,
         eval_seconds: 1.0,
+        eval_grid_points: 5000,
         final_loss: Some(0.1),
         final_silhouette_loss: Some(0.09),
         final_regularizer_loss: Some(0.01),
