@@ -435,6 +435,26 @@ fn a_tiny_ablation_runs_every_variant_and_resumes_by_skipping_finished_ones() {
     let log = ok(&experiments(&[f, "--out", o, "--resume"]));
     assert_eq!(log.matches("finished, skipping").count(), 3, "{log}");
 
+    // A light copy of a finished run (no checkpoints, meshes or pictures: what `results/` keeps
+    // in git) is taken as finished, its loss history read from its history.csv.
+    let light = dir.path().join("light");
+    copy_dir(&out.join("full"), &light.join("full"));
+    std::fs::remove_dir_all(light.join("full/checkpoints")).unwrap();
+    let log = ok(&experiments(&[
+        f,
+        "--out",
+        light.to_str().unwrap(),
+        "--resume",
+        "--variant",
+        "full",
+    ]));
+    assert_eq!(log.matches("finished, skipping").count(), 1, "{log}");
+    let entries: Vec<AblationEntry> =
+        serde_json::from_str(&std::fs::read_to_string(light.join("ablation.json")).unwrap())
+            .unwrap();
+    assert_eq!(entries.len(), 1);
+    assert!(!entries[0].loss_history.is_empty());
+
     // A run directory copied from another file's entry that trains the same way is taken over.
     let other = dir.path().join("other");
     copy_dir(&out.join("full"), &other.join("full"));

@@ -54,6 +54,7 @@ use tracing::{error, info};
 
 use crate::evaluate::{PredictionScores, read_predictions_csv};
 use crate::experiment::{DataConfig, Experiment, load_experiment};
+use crate::history::read_history;
 use crate::loader::{CategoryData, ensure_dataset, load};
 use crate::lock::RunLock;
 use crate::metrics::Metrics;
@@ -344,16 +345,22 @@ fn evaluate_again(
     Ok(outcome)
 }
 
-/// A run that finished in an earlier invocation.
+/// A run that finished in an earlier invocation. Its loss history comes from the latest
+/// checkpoint or, for a run kept without checkpoints (the light copies under `results/`, see
+/// README "Results"), from its `history.csv`.
 fn read_finished(seed: u64, dir: &Path) -> Result<SeedRun> {
     let path = dir.join("metrics.json");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("cannot read {}", path.display()))?;
     let metrics: Metrics =
         serde_json::from_str(&text).map_err(|err| anyhow!("{}: {err}", path.display()))?;
-    let history = checkpoint::latest(&dir.join("checkpoints"))?
-        .map(|s| s.history)
-        .unwrap_or_default();
+    let history = match checkpoint::latest(&dir.join("checkpoints"))? {
+        Some(s) => s.history,
+        None => read_history(&dir.join(crate::history::FILE))?
+            .into_iter()
+            .map(|r| (r.step, r.loss))
+            .collect(),
+    };
     Ok(SeedRun {
         seed,
         metrics,
