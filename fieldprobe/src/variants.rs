@@ -6,6 +6,7 @@
 //! base_name = "p=0.8"              # the base's row name (default "base")
 //! base_paper_iou = 0.548           # the paper's number for the base's row (optional)
 //! paper_table = "Table 2, chair"   # where the paper's numbers come from (optional)
+//! against = "no regularizer"       # the row the report's paired differences subtract (default: the base)
 //! # ... the base: [data], [model], [probe], [regularizers.*], [train], [eval] as in any experiment
 //!
 //! [[variants]]
@@ -37,8 +38,13 @@
 //! * anything else (numbers, strings, arrays) replaces the base's value.
 //!
 //! The base is the first entry, named by `base_name`. The reserved top-level keys (`variants`,
-//! `base_name`, `base_paper_iou`, `paper_table`) are stripped before the base is read, so
-//! [`Experiment`] itself knows nothing of variants.
+//! `base_name`, `base_paper_iou`, `paper_table`, `seeds`, `against`) are stripped before the base
+//! is read, so [`Experiment`] itself knows nothing of variants.
+//!
+//! `against` names the row that the report's paired differences are taken from. The base is the
+//! row every variant is a delta of, which is not always the row a reader compares with: a λ sweep
+//! keeps the paper's λ as its base (so that it trains exactly as the ablations' bases) but asks
+//! whether each λ changes what is learned against no regularizer at all.
 
 use std::path::{Path, PathBuf};
 
@@ -50,12 +56,13 @@ use crate::layers::merge;
 use crate::overrides::Overrides;
 
 /// Top-level keys of an ablation file that are not experiment keys.
-pub const RESERVED_TOP: [&str; 5] = [
+pub const RESERVED_TOP: [&str; 6] = [
     "variants",
     "base_name",
     "base_paper_iou",
     "paper_table",
     "seeds",
+    "against",
 ];
 /// Keys of a `[[variants]]` entry that are not overrides.
 pub const RESERVED_VARIANT: [&str; 2] = ["name", "paper_iou"];
@@ -88,6 +95,9 @@ pub struct AblationFile {
     /// Empty: one run per entry with the file's `seed`, in `<slug>/`.
     pub seeds: Vec<u64>,
     pub entries: Vec<Variant>,
+    /// The index in `entries` of the row the report's paired differences subtract (`against`;
+    /// 0, the base, by default).
+    pub against: usize,
 }
 
 impl AblationFile {
@@ -175,6 +185,14 @@ impl AblationFile {
             }
             Some(_) => bail!("{file}: seeds must be a list of integers, e.g. seeds = [0, 1]"),
         };
+        let against = match top.remove("against") {
+            None => None,
+            Some(Value::String(s)) => Some(s),
+            Some(v) => bail!(
+                "{file}: against must be a string (an entry's name), got {}",
+                v.type_str()
+            ),
+        };
         let name = match top.get("name") {
             Some(Value::String(s)) => s.clone(),
             _ => bail!("{file}: name must be a string (it names the run directory)"),
@@ -233,12 +251,26 @@ impl AblationFile {
                 }
             }
         }
+        let against = match against {
+            None => 0,
+            Some(a) => entries.iter().position(|e| e.name == a).ok_or_else(|| {
+                anyhow!(
+                    "{file}: against = \"{a}\" names no entry (entries: {})",
+                    entries
+                        .iter()
+                        .map(|e| e.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })?,
+        };
         Ok(Self {
             path: path.to_path_buf(),
             name,
             paper_table,
             seeds,
             entries,
+            against,
         })
     }
 }
@@ -543,6 +575,31 @@ regularizers = {}
             err.contains("variant 'old'") && err.contains("[regularizers.<name>]"),
             "{err}"
         );
+    }
+
+    /// `against` picks the row the report subtracts: the base by default, or a named variant; a
+    /// name that is no entry is an error listing the entries.
+    #[test]
+    fn against_names_an_entry_or_defaults_to_the_base() {
+        let variants = "[[variants]]\nname = \"none\"\nseed = 1\n";
+        assert_eq!(parse(variants).unwrap().against, 0);
+        let with = |against: &str| {
+            AblationFile::parse(
+                &format!("against = {against}\n{BASE}\n{variants}"),
+                Path::new("ablations/x.toml"),
+            )
+        };
+        assert_eq!(with("\"none\"").unwrap().against, 1);
+        assert_eq!(with("\"full model\"").unwrap().against, 0);
+        let err = with("\"nothing\"").unwrap_err().to_string();
+        assert!(
+            err.contains("x.toml")
+                && err.contains("\"nothing\"")
+                && err.contains("full model, none"),
+            "{err}"
+        );
+        let err = with("1").unwrap_err().to_string();
+        assert!(err.contains("against must be a string"), "{err}");
     }
 
     #[test]

@@ -12,26 +12,33 @@ use fieldprobe::variants::AblationFile;
 use super::figures::SamplesInfo;
 use crate::plot;
 
-/// "Against the base": each finished row's paired difference from the base in max-pool IoU,
-/// Chamfer-L1 and normal consistency, and whether it is resolved. This is how a row without the
-/// paper's number (a sweep's) is read: does the change move what is learned beyond noise?
-fn render_against_base(done: &[(usize, &AblationEntry)]) -> String {
+/// "Against the base" (or against the row the file's `against` names): each other finished row's
+/// paired difference from it in max-pool IoU, Chamfer-L1 and normal consistency, and whether it
+/// is resolved. This is how a row without the paper's number (a sweep's) is read: does the
+/// change move what is learned beyond noise?
+fn render_against(done: &[(usize, &AblationEntry)], against: usize) -> String {
     let mut s = String::new();
-    let Some(&(0, base)) = done.first() else {
+    let Some(&(_, reference)) = done.iter().find(|(i, _)| *i == against) else {
         return s;
     };
     if done.len() < 2 {
         return s;
     }
-    let _ = writeln!(s, "\n## Against the base\n");
+    let title = if against == 0 {
+        "the base".to_string()
+    } else {
+        format!("'{}'", reference.variant)
+    };
+    let _ = writeln!(s, "\n## Against {title}\n");
     let _ = writeln!(
         s,
-        "Each row minus the base ({}), paired on the same training seed and evaluation object: \
+        "Each row minus {} ({}), paired on the same training seed and evaluation object: \
          the mean difference and, in brackets, twice its standard error. A difference is \
          **resolved** (bold) when it exceeds 2·SE (and, for IoU, {MIN_RESOLVED_DIFF}). Chamfer-L1 \
          (×10; lower is better) and normal consistency are per object means over its meshed \
          views.\n",
-        base.variant
+        if against == 0 { "the base" } else { "the row" },
+        reference.variant
     );
     let _ = writeln!(
         s,
@@ -54,22 +61,27 @@ fn render_against_base(done: &[(usize, &AblationEntry)]) -> String {
             None => "–".into(),
         }
     };
-    for &(i, e) in &done[1..] {
+    for &(i, e) in done.iter().filter(|(i, _)| *i != against) {
         let _ = writeln!(
             s,
             "| {} | {} | {} | {} | {} |",
             i + 1,
             e.variant,
-            cell(&e.per_object(), &base.per_object(), 1.0, MIN_RESOLVED_DIFF),
+            cell(
+                &e.per_object(),
+                &reference.per_object(),
+                1.0,
+                MIN_RESOLVED_DIFF
+            ),
             cell(
                 &e.per_seed_object_chamfer,
-                &base.per_seed_object_chamfer,
+                &reference.per_seed_object_chamfer,
                 10.0,
                 0.0
             ),
             cell(
                 &e.per_seed_object_normals,
-                &base.per_seed_object_normals,
+                &reference.per_seed_object_normals,
                 1.0,
                 0.0
             ),
@@ -245,7 +257,7 @@ pub fn render_report(file: &AblationFile, status: &[Status], samples: &SamplesIn
         );
     }
 
-    s.push_str(&render_against_base(&done));
+    s.push_str(&render_against(&done, file.against));
 
     let _ = writeln!(s, "\n## Ordering vs the paper\n");
     let _ = writeln!(

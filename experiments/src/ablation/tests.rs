@@ -57,3 +57,31 @@ fn the_report_has_every_row_and_the_curves_every_finished_entry() {
         "a failed entry draws no curve"
     );
 }
+
+/// With `against` naming a variant, the paired differences are taken from that row (the base is
+/// then one of the rows subtracted from it), and a row that has not finished gives no section.
+#[test]
+fn the_paired_differences_are_taken_against_the_row_the_file_names() {
+    let (mut file, status) = four_entries();
+    file.against = 1;
+    let samples = SamplesInfo {
+        object: "o".into(),
+        left: "L".into(),
+        right: "R".into(),
+        rays: 4,
+        anchors: 8,
+    };
+    let report = render_report(&file, &status, &samples);
+    assert!(!report.contains("## Against the base"), "{report}");
+    for needle in [
+        "## Against 'normal'",
+        "Each row minus the row (normal)",
+        "| 1 | full | **+0.200 (0.000)** | **-0.200 (0.000)** | **+0.080 (0.000)** |",
+    ] {
+        assert!(report.contains(needle), "missing {needle:?} in\n{report}");
+    }
+    assert!(!report.contains("| 2 | normal | **"), "{report}");
+    file.against = 2; // 'naive' failed
+    let report = render_report(&file, &status, &samples);
+    assert!(!report.contains("## Against"), "{report}");
+}
