@@ -256,11 +256,7 @@ impl AblationFile {
             Some(a) => entries.iter().position(|e| e.name == a).ok_or_else(|| {
                 anyhow!(
                     "{file}: against = \"{a}\" names no entry (entries: {})",
-                    entries
-                        .iter()
-                        .map(|e| e.name.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    entry_names(&entries)
                 )
             })?,
         };
@@ -273,6 +269,15 @@ impl AblationFile {
             against,
         })
     }
+}
+
+/// The entries' names, comma-separated: what an error about a name that matches no entry lists.
+pub fn entry_names(entries: &[Variant]) -> String {
+    entries
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Whether `path` is a TOML file with a `variants` key (an ablation file). Unreadable or invalid

@@ -61,7 +61,7 @@ use crate::metrics::Metrics;
 use crate::outputs::Outputs;
 use crate::run::{FileOutcome, RunOptions, RunOutcome, prepare_dir, run_one};
 use crate::run_dir::RunDir;
-use crate::variants::{AblationFile, Variant};
+use crate::variants::{AblationFile, Variant, entry_names};
 
 /// Runs an ablation file (one with `[[variants]]`): every entry and seed, or only those that
 /// `opts.variant` and `opts.seed` name. `outputs` writes the comparison after each entry.
@@ -79,11 +79,7 @@ pub fn run(path: &Path, opts: &RunOptions, outputs: &dyn Outputs) -> Result<File
         bail!(
             "{}: no entry named '{v}' (entries: {})",
             path.display(),
-            file.entries
-                .iter()
-                .map(|e| e.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
+            entry_names(&file.entries)
         );
     }
     if let Some(s) = args.seed
@@ -347,7 +343,7 @@ fn evaluate_again(
 
 /// A run that finished in an earlier invocation. Its loss history comes from the latest
 /// checkpoint or, for a run kept without checkpoints (the light copies under `results/`, see
-/// README "Results"), from its `history.csv`.
+/// `results/README.md`), from its `history.csv`.
 fn read_finished(seed: u64, dir: &Path) -> Result<SeedRun> {
     let path = dir.join("metrics.json");
     let text = std::fs::read_to_string(&path)
