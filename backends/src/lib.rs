@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 pub mod testing;
 mod vulkan;
 
-pub use vulkan::wgpu_unavailable;
+pub use vulkan::{device_select_is_noise, wgpu_unavailable};
 
 /// Which backend to run on.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -29,6 +29,31 @@ pub fn wgpu_unavailable() -> Option<String> {
     None
 }
 
+/// Whether Mesa's Vulkan `device_select` layer should be switched off (`NODEVICE_SELECT=1`) for
+/// this process, given its environment `var`.
+///
+/// Mesa installs the layer implicitly with its drivers (lavapipe included). When the Vulkan
+/// loader starts it, the layer connects to the Wayland compositor to learn which GPU drives the
+/// display; on a headless machine (no `XDG_RUNTIME_DIR`) libwayland prints
+/// `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` once per probe, six
+/// times per run, though nothing is wrong. A compute job has no display to match and this
+/// project picks its adapter itself ([`crate::hardware_gpu`]), so the layer has nothing to do.
+/// It is left alone wherever a user may rely on it: when any of its own variables
+/// (`NODEVICE_SELECT`, `MESA_VK_DEVICE_SELECT`, `DRI_PRIME`) is set, or when `XDG_RUNTIME_DIR`
+/// names a folder (a desktop session). Off Linux the layer does not exist.
+pub fn device_select_is_noise(var: impl Fn(&str) -> Option<String>) -> bool {
+    if !cfg!(target_os = "linux") {
+        return false;
+    }
+    let user_set = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"]
+        .iter()
+        .any(|v| var(v).is_some());
+    let session = var("XDG_RUNTIME_DIR")
+        .filter(|d| !d.is_empty())
+        .is_some_and(|d| Path::new(&d).is_dir());
+    !user_set && !session
+}
+
 /// Folders the dynamic loader searches for `libvulkan.so.1` on common distributions.
 fn loader_dirs() -> Vec<PathBuf> {
     let mut dirs: Vec<PathBuf> = std::env::var("LD_LIBRARY_PATH")
@@ -92,4 +117,37 @@ fn icd_manifests() -> Vec<PathBuf> {
         .map(|e| e.path())
         .filter(|p| p.extension().is_some_and(|e| e == "json"))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
+        move |name| {
+            vars.iter()
+                .find(|(k, _)| *k == name)
+                .map(|(_, v)| v.to_string())
+        }
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn device_select_is_switched_off_only_on_a_headless_machine_nobody_configured() {
+        // Headless: no session folder, or one that does not exist.
+        assert!(device_select_is_noise(env(&[])));
+        assert!(device_select_is_noise(env(&[("XDG_RUNTIME_DIR", "")])));
+        assert!(device_select_is_noise(env(&[(
+            "XDG_RUNTIME_DIR",
+            "/nonexistent/fieldprobe-test"
+        )])));
+        // A desktop session: the layer may be choosing the display's GPU.
+        let dir = std::env::temp_dir();
+        let dir = dir.to_str().unwrap();
+        assert!(!device_select_is_noise(env(&[("XDG_RUNTIME_DIR", dir)])));
+        // The user configured the layer (or already switched it off).
+        for var in ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"] {
+            assert!(!device_select_is_noise(env(&[(var, "1")])), "{var}");
+        }
+    }
 }

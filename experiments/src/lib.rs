@@ -96,6 +96,12 @@ pub fn cli_main() -> anyhow::Result<()> {
     if std::env::var_os("BURN_DEVICE").is_none() {
         unsafe { std::env::set_var("BURN_DEVICE", "flex") };
     }
+    // Mesa's Vulkan device_select layer prints a Wayland error at every adapter probe on a
+    // headless machine; it has no display to match there (see the function's docs).
+    // SAFETY: as above.
+    if fieldprobe_backends::device_select_is_noise(|v| std::env::var(v).ok()) {
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
     let cli = Cli::parse();
     logging::init(logging::level_of(cli.verbose, cli.quiet));
     if !cli.quiet {
