@@ -29,7 +29,8 @@ fn ok(out: &Output) -> String {
 }
 
 fn ablation_files() -> Vec<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("ablations");
+    let root = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"))
+        .join("ablations");
     let mut files = Vec::new();
     for dir in [root.clone(), root.join("paper")] {
         for e in std::fs::read_dir(&dir).unwrap() {
@@ -53,10 +54,13 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
     let names: Vec<String> = files
         .iter()
         .map(|p| {
-            p.strip_prefix(Path::new(env!("CARGO_MANIFEST_DIR")).join("ablations"))
-                .unwrap()
-                .display()
-                .to_string()
+            p.strip_prefix(
+                PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"))
+                    .join("ablations"),
+            )
+            .unwrap()
+            .display()
+            .to_string()
         })
         .collect();
     assert_eq!(
@@ -203,7 +207,7 @@ fn every_ablation_file_parses_and_every_variant_deserializes() {
 /// tables). The Δd ablation is on tables: it differs in `[data]` only. All are evaluated alike.
 #[test]
 fn the_cpu_ablation_bases_train_as_the_lambda_sweep_rows() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"));
     let load =
         |rel: &str| AblationFile::load(&root.join(rel)).unwrap_or_else(|e| panic!("{rel}: {e:#}"));
     let entry = |f: &AblationFile, name: &str| {

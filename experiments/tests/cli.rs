@@ -1,6 +1,6 @@
 //! The `experiments` binary end to end: procedural and mesh sources, errors that name files.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use fieldprobe_core::data::Category;
@@ -248,9 +248,11 @@ fn bad_meshes_and_folders_are_named_and_nothing_is_written() {
 #[test]
 fn experiment_files_with_bad_keys_or_components_are_named() {
     let dir = tempfile::tempdir().unwrap();
-    let good =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("quickstart.toml"))
-            .unwrap();
+    let good = std::fs::read_to_string(
+        PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"))
+            .join("quickstart.toml"),
+    )
+    .unwrap();
     let cases = [
         (
             good.replace("rays_per_view", "rayz_per_view"),

@@ -3,7 +3,7 @@
 //! Read from each file's resolved configuration (what a run records in `config.toml`); the
 //! ablation files' bases are pinned in `tests/ablation.rs`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use fieldprobe::experiment::{Experiment, load_experiment};
 use toml::{Table, Value};
@@ -49,8 +49,9 @@ fn assert_full_method(name: &str, exp: &Experiment) {
     assert!(f(&["regularizers", "normals", "weight"]) > 0.0, "{name}");
 }
 
-fn root() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/"))
+/// The package folder as cargo sets it when running the test (see `fieldprobe_tests::data_dir`).
+fn root() -> PathBuf {
+    PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"))
 }
 
 #[test]
@@ -83,7 +84,7 @@ fn every_shipped_experiment_file_loads() {
         }
     }
     let mut files = Vec::new();
-    walk(root(), &mut files);
+    walk(&root(), &mut files);
     assert!(files.len() >= 10, "{files:?}");
     for f in &files {
         if has_variants(f) {

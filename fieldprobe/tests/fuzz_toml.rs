@@ -14,7 +14,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn shipped() -> Vec<(PathBuf, String)> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../experiments");
+    let root = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"))
+        .join("../experiments");
     let mut files = Vec::new();
     for dir in ["", "ablations", "ablations/paper", "bench", "sdf", "sweeps"] {
         for e in std::fs::read_dir(root.join(dir)).unwrap() {

@@ -1,7 +1,7 @@
 //! The shipped `film.toml`, which uses this crate's representation, trains, checkpoints and
 //! evaluates end to end through FieldProbe's unchanged pipeline.
 
-use std::path::Path;
+use std::path::PathBuf;
 
 // Link this crate so its representation is registered (exactly what its `main` does).
 use custom_model as _;
@@ -9,7 +9,8 @@ use custom_model as _;
 #[test]
 fn film_toml_trains_and_writes_metrics() {
     let dir = tempfile::tempdir().unwrap();
-    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("film.toml");
+    let shipped = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"))
+        .join("film.toml");
     let out = fieldprobe::launch::run_shrunk(&shipped, dir.path(), 6).unwrap();
     let metrics: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
