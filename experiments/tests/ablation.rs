@@ -28,9 +28,15 @@ fn ok(out: &Output) -> String {
     t
 }
 
+/// `experiments/ablations/`, from the folder cargo names when it runs the test (see
+/// `fieldprobe_tests::data_dir` for why not `env!`).
+fn ablations_dir() -> PathBuf {
+    PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"))
+        .join("ablations")
+}
+
 fn ablation_files() -> Vec<PathBuf> {
-    let root = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"))
-        .join("ablations");
+    let root = ablations_dir();
     let mut files = Vec::new();
     for dir in [root.clone(), root.join("paper")] {
         for e in std::fs::read_dir(&dir).unwrap() {
@@ -51,17 +57,10 @@ fn json(v: &impl serde::Serialize) -> String {
 #[test]
 fn every_ablation_file_parses_and_every_variant_deserializes() {
     let files = ablation_files();
+    let root = ablations_dir();
     let names: Vec<String> = files
         .iter()
-        .map(|p| {
-            p.strip_prefix(
-                PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("run by cargo test"))
-                    .join("ablations"),
-            )
-            .unwrap()
-            .display()
-            .to_string()
-        })
+        .map(|p| p.strip_prefix(&root).unwrap().display().to_string())
         .collect();
     assert_eq!(
         names,
