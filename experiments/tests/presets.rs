@@ -70,6 +70,30 @@ fn the_main_command_and_paper_toml_run_the_full_method() {
 
 /// Every experiment file shipped under `experiments/` loads and validates (a plain file, or every
 /// variant of an ablation file), so a renamed key or component breaks a test, not a user's run.
+/// `fit-one.toml` is the per-object λ sweep's row "λ = 3" (the λ that sweep chose, README "The
+/// regularizer's weight"), so the sweep's finished runs are the preset's measured numbers: the
+/// same training table (seed included), hence the same weights.
+#[test]
+fn fit_one_trains_as_the_chosen_row_of_its_lambda_sweep() {
+    let fit_one = load_experiment(&root().join("fit-one.toml")).unwrap();
+    let sweep =
+        fieldprobe::variants::AblationFile::load(&root().join("sweeps/lambda-fit-one.toml"))
+            .unwrap();
+    let row = |name: &str| {
+        let e = sweep.entries.iter().find(|e| e.name == name);
+        e.unwrap_or_else(|| panic!("sweep has no row {name}"))
+            .experiment
+            .training_table()
+            .unwrap()
+    };
+    let preset = fit_one.training_table().unwrap();
+    assert_eq!(preset, row("λ=3"));
+    assert_ne!(preset, row("none"), "the preset has a regularizer");
+    let t = resolved(&fit_one);
+    let w = get(&t, &["regularizers", "normals", "weight"]).as_float();
+    assert_eq!(w, Some(3.0));
+}
+
 #[test]
 fn every_shipped_experiment_file_loads() {
     use fieldprobe::variants::{AblationFile, has_variants};
