@@ -68,8 +68,6 @@ fn the_main_command_and_paper_toml_run_the_full_method() {
     );
 }
 
-/// Every experiment file shipped under `experiments/` loads and validates (a plain file, or every
-/// variant of an ablation file), so a renamed key or component breaks a test, not a user's run.
 /// `fit-one.toml` is the per-object λ sweep's row "λ = 3" (the λ that sweep chose, README "The
 /// regularizer's weight"), so the sweep's finished runs are the preset's measured numbers: the
 /// same training table (seed included), hence the same weights.
@@ -94,6 +92,8 @@ fn fit_one_trains_as_the_chosen_row_of_its_lambda_sweep() {
     assert_eq!(w, Some(3.0));
 }
 
+/// Every experiment file shipped under `experiments/` loads and validates (a plain file, or every
+/// variant of an ablation file), so a renamed key or component breaks a test, not a user's run.
 #[test]
 fn every_shipped_experiment_file_loads() {
     use fieldprobe::variants::{AblationFile, has_variants};

@@ -24,6 +24,9 @@ import json
 import math
 import os
 import sys
+import tomllib
+
+from stats import mean_se
 
 # (column, value of a metrics.json, scale, least |Δ| called resolved: the ablation report's rule)
 METRICS = [
@@ -53,13 +56,8 @@ def run_key(run_dir, m):
     ids = tuple(
         sorted(o[0] for c in m["per_category"].values() for o in c.get("per_object", []))
     )
-    seed = None
-    cfg = os.path.join(run_dir, "config.toml")
-    if os.path.exists(cfg):
-        for line in open(cfg, encoding="utf-8"):
-            if line.startswith("seed"):
-                seed = int(line.split("=")[1])
-                break
+    with open(os.path.join(run_dir, "config.toml"), "rb") as f:
+        seed = tomllib.load(f)["seed"]
     return ids, seed
 
 
@@ -77,17 +75,6 @@ def load_row(pattern):
             sys.exit(f"{pattern}: two runs share object(s) and seed {key}")
         runs[key] = m
     return runs
-
-
-def mean_se(xs):
-    n = len(xs)
-    if n == 0:
-        return float("nan"), float("nan")
-    mu = sum(xs) / n
-    if n < 2:
-        return mu, float("nan")
-    var = sum((x - mu) ** 2 for x in xs) / (n - 1)
-    return mu, math.sqrt(var / n)
 
 
 def fmt_delta(d, two_se, n, least=0.0):

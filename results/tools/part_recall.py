@@ -40,6 +40,8 @@ import sys
 import numpy as np
 import trimesh
 
+from stats import mean_se
+
 VOXEL = 1.0 / 32
 CUT = -0.5 + 0.35
 
@@ -98,13 +100,6 @@ def selftest(dataset):
         assert cut["leg_recall"] < 0.5 and cut["top_recall"] > 0.99, (path, cut)
         print(f"{os.path.basename(path)}: itself {same}, without legs {cut}")
     print("selftest passed")
-
-
-def mean_se(values):
-    m = sum(values) / len(values)
-    if len(values) < 2:
-        return m, float("nan")
-    return m, math.sqrt(sum((x - m) ** 2 for x in values) / (len(values) - 1) / len(values))
 
 
 def main(dataset, rows):
